@@ -1,0 +1,6 @@
+"""The polygonizer: watertight triangle meshes of a BlobTree at any resolution."""
+
+from .export import Mesh
+from .polygonize import polygonize
+
+__all__ = ["Mesh", "polygonize"]

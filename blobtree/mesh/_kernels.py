@@ -1,0 +1,236 @@
+"""Numba kernels of the polygonizer: marching cubes by contour tracing on the cube faces.
+
+No case table is stored or copied.  For each cell the surface polygon(s) are traced at run time
+from the cell's six faces, the construction behind every face-consistent marching-cubes table
+(Lorensen & Cline 1987; the face ambiguity is resolved by the asymptotic decider of Nielson &
+Hamann, "The asymptotic decider", IEEE Visualization 1991):
+
+* On each face, seen from outside the cube with its corners in counter-clockwise order, every
+  edge whose first corner is inside and second outside ("in->out") starts a contour segment that
+  keeps the inside on its left; it ends at an "out->in" edge of the same face.  With two such
+  pairs (an ambiguous face) the bilinear saddle decides whether the inside corners connect.
+* Every crossing cube edge lies on two faces and is traversed in opposite directions by them,
+  so it starts exactly one segment and ends exactly one: the segments form disjoint loops.
+* Each loop is fanned into triangles.  The decision on a face depends only on the face's four
+  samples, so both cells sharing a face draw the same segments in opposite directions: the
+  union of all cells is a closed, consistently oriented 2-manifold (given no sample equals the
+  iso-value exactly; samples equal to it count as inside, as the field convention says).
+
+Vertices are keyed on lattice edges, ``key = point_index * 3 + axis``, so cells and blocks that
+share an edge share the vertex.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numba as nb
+import numpy as np
+
+# --- cell geometry, generated (corner c = x + 2y + 4z) ----------------------------------------
+
+_CORNERS = np.array([[c & 1, (c >> 1) & 1, (c >> 2) & 1] for c in range(8)], dtype=np.int64)
+
+
+def _edge_of(c0: int, c1: int) -> int:
+    """Cell edge id (axis * 4 + index of the other two coordinates) joining two corners."""
+    d = c0 ^ c1
+    axis = {1: 0, 2: 1, 4: 2}[d]
+    lo = min(c0, c1)
+    others = [_CORNERS[lo][a] for a in range(3) if a != axis]
+    return axis * 4 + others[0] + 2 * others[1]
+
+
+def _face_tables() -> tuple[np.ndarray, np.ndarray]:
+    """Corners (6, 4) of each face counter-clockwise seen from outside, and edges (6, 4) with edge
+    k joining corners k and k+1."""
+    corners, edges = [], []
+    for axis, side in itertools.product(range(3), (0, 1)):
+        normal = np.zeros(3)
+        normal[axis] = 1.0 if side else -1.0
+        on_face = [c for c in range(8) if _CORNERS[c][axis] == side]
+        centre = _CORNERS[on_face].mean(axis=0)
+        u = np.roll(normal, 1)  # a direction in the face plane
+        v = np.cross(normal, u)
+        ang = [np.arctan2((_CORNERS[c] - centre) @ v, (_CORNERS[c] - centre) @ u) for c in on_face]
+        ring = [on_face[i] for i in np.argsort(ang)]  # counter-clockwise about the outward normal
+        corners.append(ring)
+        edges.append([_edge_of(ring[k], ring[(k + 1) % 4]) for k in range(4)])
+    return np.array(corners, dtype=np.int64), np.array(edges, dtype=np.int64)
+
+
+FACE_CORNERS, FACE_EDGES = _face_tables()
+#: axis and lower-corner lattice offset of each of the 12 cell edges
+EDGE_AXIS = np.array([e // 4 for e in range(12)], dtype=np.int64)
+EDGE_OFFSET = np.zeros((12, 3), dtype=np.int64)
+for _c0, _c1 in itertools.combinations(range(8), 2):
+    if bin(_c0 ^ _c1).count("1") == 1:
+        EDGE_OFFSET[_edge_of(_c0, _c1)] = _CORNERS[min(_c0, _c1)]
+
+
+@nb.njit(cache=True, inline="always")
+def _cell_loops(v, iso, nxt, loops, loop_len):
+    """Trace the contour loops of one cell with corner values ``v`` (8,).
+
+    Writes the loops' cell edges into ``loops`` (12,) back to back and their lengths into
+    ``loop_len`` (4,); returns the number of loops.
+    """
+    for e in range(12):
+        nxt[e] = -1
+    for f in range(6):
+        n_io = 0
+        k_io0 = -1
+        k_io1 = -1
+        k_oi = -1
+        for k in range(4):
+            a = v[FACE_CORNERS[f, k]] >= iso
+            b = v[FACE_CORNERS[f, (k + 1) % 4]] >= iso
+            if a and not b:
+                if n_io == 0:
+                    k_io0 = k
+                else:
+                    k_io1 = k
+                n_io += 1
+            elif b and not a:
+                k_oi = k
+        if n_io == 1:
+            nxt[FACE_EDGES[f, k_io0]] = FACE_EDGES[f, k_oi]
+        elif n_io == 2:
+            # asymptotic decider: the saddle of the bilinear interpolant is inside iff the
+            # product of the inside diagonal exceeds that of the outside diagonal.
+            d0 = (v[FACE_CORNERS[f, 0]] - iso) * (v[FACE_CORNERS[f, 2]] - iso)
+            d1 = (v[FACE_CORNERS[f, 1]] - iso) * (v[FACE_CORNERS[f, 3]] - iso)
+            if v[FACE_CORNERS[f, 0]] >= iso:
+                connect = d0 > d1
+            else:
+                connect = d1 > d0
+            step = 1 if connect else 3
+            for k in (k_io0, k_io1):
+                nxt[FACE_EDGES[f, k]] = FACE_EDGES[f, (k + step) % 4]
+    n_loops = 0
+    pos = 0
+    for e0 in range(12):
+        if nxt[e0] < 0:
+            continue
+        start = pos
+        e = e0
+        while nxt[e] >= 0:
+            loops[pos] = e
+            pos += 1
+            n = nxt[e]
+            nxt[e] = -1
+            e = n
+        loop_len[n_loops] = pos - start
+        n_loops += 1
+    return n_loops
+
+
+@nb.njit(cache=True, parallel=True)
+def _block_counts(values, iso):
+    """(vertices, triangles) produced by each block of ``values`` (K, b+1, b+1, b+1)."""
+    nblk = values.shape[0]
+    m = values.shape[1]
+    counts = np.zeros((nblk, 2), dtype=np.int64)
+    for blk in nb.prange(nblk):
+        nxt = np.empty(12, dtype=np.int64)
+        loops = np.empty(12, dtype=np.int64)
+        loop_len = np.empty(4, dtype=np.int64)
+        v = np.empty(8)
+        nv = 0
+        nt = 0
+        for i in range(m):
+            for j in range(m):
+                for k in range(m):
+                    inside = values[blk, i, j, k] >= iso
+                    if i + 1 < m and (values[blk, i + 1, j, k] >= iso) != inside:
+                        nv += 1
+                    if j + 1 < m and (values[blk, i, j + 1, k] >= iso) != inside:
+                        nv += 1
+                    if k + 1 < m and (values[blk, i, j, k + 1] >= iso) != inside:
+                        nv += 1
+                    if i + 1 == m or j + 1 == m or k + 1 == m:
+                        continue
+                    n_in = 0
+                    for c in range(8):
+                        v[c] = values[blk, i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2)]
+                        n_in += v[c] >= iso
+                    if n_in == 0 or n_in == 8:
+                        continue
+                    nl = _cell_loops(v, iso, nxt, loops, loop_len)
+                    for q in range(nl):
+                        nt += loop_len[q] - 2
+        counts[blk, 0] = nv
+        counts[blk, 1] = nt
+    return counts
+
+
+@nb.njit(cache=True, parallel=True)
+def block_triangles(values, origins, dims, iso):
+    """Contour every cell of a batch of blocks.
+
+    ``values`` (K, b+1, b+1, b+1): samples of each block; ``origins`` (K, 3): each block's first
+    lattice point; ``dims`` (3,): lattice points per axis (for the keys).  Returns ``keys`` (V,)
+    lattice-edge keys of the vertices, ``f0``, ``f1`` (V,) the samples at each edge's ends, and
+    ``tris`` (T, 3) indices into those vertices, oriented outward (towards lower field).
+    Vertices on block faces appear once per block that uses them.
+    """
+    nblk = values.shape[0]
+    m = values.shape[1]
+    counts = _block_counts(values, iso)
+    v_off = np.zeros(nblk + 1, dtype=np.int64)
+    t_off = np.zeros(nblk + 1, dtype=np.int64)
+    for blk in range(nblk):
+        v_off[blk + 1] = v_off[blk] + counts[blk, 0]
+        t_off[blk + 1] = t_off[blk] + counts[blk, 1]
+    keys = np.empty(v_off[nblk], dtype=np.int64)
+    f0 = np.empty(v_off[nblk])
+    f1 = np.empty(v_off[nblk])
+    tris = np.empty((t_off[nblk], 3), dtype=np.int64)
+    d1 = dims[1]
+    d2 = dims[2]
+    for blk in nb.prange(nblk):
+        vid = np.full(m * m * m * 3, -1, dtype=np.int64)
+        nxt = np.empty(12, dtype=np.int64)
+        loops = np.empty(12, dtype=np.int64)
+        loop_len = np.empty(4, dtype=np.int64)
+        v = np.empty(8)
+        cell_vid = np.empty(12, dtype=np.int64)
+        ov = v_off[blk]
+        ot = t_off[blk]
+        oi, oj, ok = origins[blk, 0], origins[blk, 1], origins[blk, 2]
+        for i in range(m - 1):
+            for j in range(m - 1):
+                for k in range(m - 1):
+                    n_in = 0
+                    for c in range(8):
+                        v[c] = values[blk, i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2)]
+                        n_in += v[c] >= iso
+                    if n_in == 0 or n_in == 8:
+                        continue
+                    nl = _cell_loops(v, iso, nxt, loops, loop_len)
+                    pos = 0
+                    for q in range(nl):
+                        for r in range(loop_len[q]):
+                            e = loops[pos + r]
+                            a = EDGE_AXIS[e]
+                            li = i + EDGE_OFFSET[e, 0]
+                            lj = j + EDGE_OFFSET[e, 1]
+                            lk = k + EDGE_OFFSET[e, 2]
+                            slot = ((li * m + lj) * m + lk) * 3 + a
+                            if vid[slot] < 0:
+                                vid[slot] = ov
+                                keys[ov] = (((oi + li) * d1 + (oj + lj)) * d2 + (ok + lk)) * 3 + a
+                                f0[ov] = values[blk, li, lj, lk]
+                                f1[ov] = values[
+                                    blk, li + (a == 0), lj + (a == 1), lk + (a == 2)
+                                ]
+                                ov += 1
+                            cell_vid[r] = vid[slot]
+                        # the loop runs counter-clockwise about the inward direction: reverse
+                        for r in range(1, loop_len[q] - 1):
+                            tris[ot, 0] = cell_vid[0]
+                            tris[ot, 1] = cell_vid[r + 1]
+                            tris[ot, 2] = cell_vid[r]
+                            ot += 1
+                        pos += loop_len[q]
+    return keys, f0, f1, tris

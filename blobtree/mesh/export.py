@@ -1,0 +1,94 @@
+"""The triangle mesh returned by the polygonizer, its checks and its atomic export."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+#: file extension -> trimesh export type
+FORMATS = {".ply": "ply", ".obj": "obj", ".stl": "stl", ".glb": "glb"}
+
+
+@dataclass
+class Mesh:
+    """An indexed triangle mesh with per-vertex normals and colours (RGB in [0, 1]).
+
+    Faces are wound counter-clockwise seen from outside (their right-hand normal points out).
+    """
+
+    vertices: np.ndarray  # (V, 3) float64
+    faces: np.ndarray  # (F, 3) int
+    normals: np.ndarray  # (V, 3) float64, unit, outward
+    colors: np.ndarray  # (V, 3) float64 in [0, 1]
+
+    def _edge_codes(self) -> tuple[np.ndarray, np.ndarray]:
+        """Codes of the directed edges of all faces and of their reverses."""
+        f = self.faces.astype(np.int64)
+        a = f.reshape(-1)
+        b = np.roll(f, -1, axis=1).reshape(-1)
+        n = np.int64(len(self.vertices))
+        return a * n + b, b * n + a
+
+    @property
+    def is_watertight(self) -> bool:
+        """Closed, oriented 2-manifold at the edges: each directed edge occurs once and its
+        reverse once, i.e. every edge joins exactly two faces of opposite winding."""
+        if len(self.faces) == 0:
+            return False
+        fwd, rev = self._edge_codes()
+        fwd_sorted = np.sort(fwd)
+        if np.any(fwd_sorted[1:] == fwd_sorted[:-1]):
+            return False
+        pos = np.searchsorted(fwd_sorted, rev)
+        return bool(np.all(fwd_sorted[np.minimum(pos, len(fwd_sorted) - 1)] == rev))
+
+    @property
+    def euler_characteristic(self) -> int:
+        """V - E + F (2 per sphere-like closed component)."""
+        fwd, rev = self._edge_codes()
+        edges = len(np.unique(np.minimum(fwd, rev)))
+        used = len(np.unique(self.faces))
+        return used - edges + len(self.faces)
+
+    def to_trimesh(self):
+        """The mesh as a ``trimesh.Trimesh`` (vertices kept as they are, not merged)."""
+        import trimesh
+
+        rgba = np.empty((len(self.vertices), 4), dtype=np.uint8)
+        rgba[:, :3] = np.round(np.clip(self.colors, 0.0, 1.0) * 255.0)
+        rgba[:, 3] = 255
+        return trimesh.Trimesh(
+            vertices=self.vertices,
+            faces=self.faces,
+            vertex_normals=self.normals,
+            vertex_colors=rgba,
+            process=False,
+        )
+
+    def save(self, path: str | os.PathLike) -> Path:
+        """Write PLY (binary, with colours and normals), OBJ, STL or GLB, chosen by extension.
+
+        The file is written whole or not at all: a temporary file beside it is renamed over it.
+        """
+        path = Path(path)
+        kind = FORMATS.get(path.suffix.lower())
+        if kind is None:
+            raise ValueError(
+                f"path {str(path)!r} has extension {path.suffix!r}; allowed: {', '.join(FORMATS)}"
+            )
+        data = self.to_trimesh().export(file_type=kind)
+        if isinstance(data, str):
+            data = data.encode()
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent or ".")
+        try:
+            with os.fdopen(fd, "wb") as fh:
+                fh.write(data)
+            os.replace(tmp, path)
+        except BaseException:
+            os.unlink(tmp)
+            raise
+        return path
