@@ -1,6 +1,6 @@
 """The polygonizer: watertight triangle meshes of a BlobTree at any resolution."""
 
 from .export import Mesh
-from .polygonize import polygonize
+from .polygonizer import polygonize
 
 __all__ = ["Mesh", "polygonize"]

@@ -234,3 +234,48 @@ def block_triangles(values, origins, dims, iso):
                             ot += 1
                         pos += loop_len[q]
     return keys, f0, f1, tris
+
+
+@nb.njit(cache=True)
+def paint_blocks(origins, kept_blk, kept, fine, free_blk, free, free_size, free_value, block):
+    """Lattice values of a batch of blocks before sampling, and the points to sample.
+
+    ``origins`` (K, 3): block origins; boxes the surface may cross: ``kept`` (origins, size
+    ``fine``) in block ``kept_blk``; boxes free of it: ``free`` origins, ``free_size``, the
+    field ``free_value`` at their centres, in block ``free_blk``.  Points of free boxes take the
+    box's value.  Returns the values (K, m, m, m), and the flat indices into them (S,) and
+    lattice coordinates (S, 3) of the points of kept boxes, which must be sampled.
+    """
+    m = block + 1
+    values = np.zeros((origins.shape[0], m, m, m))
+    mark = np.zeros((origins.shape[0], m, m, m), dtype=np.bool_)
+    for q in range(free.shape[0]):
+        b = free_blk[q]
+        s = free_size[q]
+        i0 = free[q, 0] - origins[b, 0]
+        j0 = free[q, 1] - origins[b, 1]
+        k0 = free[q, 2] - origins[b, 2]
+        values[b, i0 : i0 + s + 1, j0 : j0 + s + 1, k0 : k0 + s + 1] = free_value[q]
+    n = 0
+    for q in range(kept.shape[0]):
+        b = kept_blk[q]
+        for i in range(kept[q, 0] - origins[b, 0], kept[q, 0] - origins[b, 0] + fine + 1):
+            for j in range(kept[q, 1] - origins[b, 1], kept[q, 1] - origins[b, 1] + fine + 1):
+                for k in range(kept[q, 2] - origins[b, 2], kept[q, 2] - origins[b, 2] + fine + 1):
+                    if not mark[b, i, j, k]:
+                        mark[b, i, j, k] = True
+                        n += 1
+    flat = np.empty(n, dtype=np.int64)
+    coords = np.empty((n, 3), dtype=np.int64)
+    q = 0
+    for b in range(origins.shape[0]):
+        for i in range(m):
+            for j in range(m):
+                for k in range(m):
+                    if mark[b, i, j, k]:
+                        flat[q] = ((b * m + i) * m + j) * m + k
+                        coords[q, 0] = origins[b, 0] + i
+                        coords[q, 1] = origins[b, 1] + j
+                        coords[q, 2] = origins[b, 2] + k
+                        q += 1
+    return values, flat, coords

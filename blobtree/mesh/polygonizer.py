@@ -23,12 +23,14 @@ import os
 
 import numpy as np
 
-from ._kernels import block_triangles
+from ._kernels import block_triangles, paint_blocks
 from .export import Mesh
 
 ISO = 0.5
-#: finest block size in cells
+#: cells per side of the blocks sampled and contoured together
 BLOCK = 8
+#: cells per side of the smallest boxes culled
+FINE = 2
 #: lattice points sampled per streamed batch of blocks
 BATCH_POINTS = 1 << 21
 #: Illinois steps per vertex
@@ -62,8 +64,7 @@ def polygonize(
     h = _cell_size(lo, hi, resolution, cell_size)
     budget = _available_memory() if max_memory is None else max_memory
     grid = _Grid(lo, hi, h, clip=bounds is not None)
-    blocks = _cull(prog, grid, budget)
-    keys, f0, f1, tris = _contour(prog, grid, blocks, progress)
+    keys, f0, f1, tris = _contour(prog, grid, _cull(prog, grid, budget), progress)
     keys, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
     tris = inverse.reshape(-1)[tris].astype(np.int32 if len(keys) < 2**31 else np.int64)
     p0, axis = grid.edge_points(keys)
@@ -140,8 +141,13 @@ class _Grid:
         return self.origin + idx * self.h, axis
 
 
-def _cull(prog, grid: _Grid, budget: int) -> np.ndarray:
-    """Lattice origins (K, 3) of the finest blocks the surface may cross (octree descent)."""
+def _cull(prog, grid: _Grid, budget: int):
+    """Octree descent from blocks of ``BLOCK << levels`` cells down to ``FINE`` cells.
+
+    Returns the lattice origins (K, 3) of the finest boxes the surface may cross, and the boxes
+    smaller than ``BLOCK`` proved free of it: origins (C, 3), sizes (C,) and the field at their
+    centres (C,), whose side of the iso-value holds over the whole closed box.
+    """
     levels = max(0, math.ceil(math.log2(max(1, int(grid.blocks.max())) / 4)))
     size = BLOCK << levels  # cells per side of the top-level blocks
     top = -(-grid.blocks * BLOCK // size)
@@ -149,6 +155,7 @@ def _cull(prog, grid: _Grid, budget: int) -> np.ndarray:
     origins = origins.reshape(-1, 3)
     children = np.stack(np.meshgrid(*([[0, 1]] * 3), indexing="ij"), -1).reshape(-1, 3)
     limit = grid.dims - 1
+    empty = ([], [], [])
     while True:
         lo = grid.origin + origins * grid.h
         hi = grid.origin + np.minimum(origins + size, limit) * grid.h
@@ -158,9 +165,13 @@ def _cull(prog, grid: _Grid, budget: int) -> np.ndarray:
         fc = grid.field(prog, centre) if len(origins) else np.zeros(0)
         reach = lip * half_diag * (1.0 + 1e-9) + 1e-12
         keep = (lip > 0) & (np.abs(fc - ISO) <= reach)
-        if grid.clip:  # blocks on the bounds may hold the cap where the bounds cut the solid
+        if grid.clip:  # boxes on the bounds may hold the cap where the bounds cut the solid
             on_edge = np.any((lo < grid.lo) | (hi > grid.hi), axis=1)
             keep |= on_edge & (lip > 0) & (fc + reach >= ISO)
+        if size < BLOCK:
+            empty[0].append(origins[~keep])
+            empty[1].append(np.full(np.count_nonzero(~keep), size))
+            empty[2].append(fc[~keep])
         origins = origins[keep]
         estimate = len(origins) * size * size * TRIANGLES_PER_CELL * BYTES_PER_TRIANGLE
         if estimate > budget:
@@ -170,35 +181,75 @@ def _cull(prog, grid: _Grid, budget: int) -> np.ndarray:
                 f"{grid.h:.4g}), more than the {budget / 2**30:.1f} GiB available; "
                 "use a smaller resolution or larger cell_size"
             )
-        if size == BLOCK:
-            return origins
+        if size == FINE:
+            return origins, *(np.concatenate(x) for x in empty)
         size //= 2
         origins = (origins[:, None, :] + children[None, :, :] * size).reshape(-1, 3)
         origins = origins[np.all(origins < limit, axis=1)]
 
 
-def _contour(prog, grid: _Grid, blocks: np.ndarray, progress: bool):
+def _contour(prog, grid: _Grid, boxes, progress: bool):
     """Sample the blocks in batches and contour them; concatenated vertex records and triangles
-    (indices into the concatenated records)."""
+    (indices into the concatenated records).
+
+    Each block of ``BLOCK`` cells is sampled only at the lattice points of its boxes that the
+    surface may cross; its other points take the value at the centre of a box proved free of
+    the surface that holds them, which has the right side of the iso-value.
+    """
     from tqdm import tqdm
 
+    kept, free, free_size, free_value = boxes
+    nb = grid.blocks
+    kept_block = _block_code(kept, nb)
+    free_block = _block_code(free, nb)
+    order_k, order_f = np.argsort(kept_block, kind="stable"), np.argsort(free_block, kind="stable")
+    kept, kept_block = kept[order_k], kept_block[order_k]
+    free, free_size, free_value, free_block = (
+        free[order_f], free_size[order_f], free_value[order_f], free_block[order_f]
+    )
+    blocks = np.unique(kept_block)
     m = BLOCK + 1
-    local = np.stack(np.meshgrid(*([np.arange(m)] * 3), indexing="ij"), -1).reshape(-1, 3)
     per_batch = max(1, BATCH_POINTS // m**3)
     parts = []
     offset = 0
     with tqdm(total=len(blocks), unit="block", disable=not progress, leave=False) as bar:
         for start in range(0, len(blocks), per_batch):
-            origins = blocks[start : start + per_batch]
-            points = grid.origin + (origins[:, None, :] + local[None]).reshape(-1, 3) * grid.h
-            values = grid.field(prog, points).reshape(-1, m, m, m)
+            batch = blocks[start : start + per_batch]
+            ks = _range_of(kept_block, batch)
+            fs = _range_of(free_block, batch)
+            origins = np.stack(np.unravel_index(batch, tuple(nb)), axis=1) * BLOCK
+            values, flat, coords = paint_blocks(
+                origins,
+                np.searchsorted(batch, kept_block[ks]),
+                kept[ks],
+                FINE,
+                np.searchsorted(batch, free_block[fs]),
+                free[fs],
+                free_size[fs],
+                free_value[fs],
+                BLOCK,
+            )
+            values.reshape(-1)[flat] = grid.field(prog, grid.origin + coords * grid.h)
             keys, f0, f1, tris = block_triangles(values, origins, grid.dims, ISO)
             parts.append((keys, f0, f1, tris + offset))
             offset += len(keys)
-            bar.update(len(origins))
+            bar.update(len(batch))
     if not parts:
         return np.zeros(0, np.int64), np.zeros(0), np.zeros(0), np.zeros((0, 3), np.int64)
     return tuple(np.concatenate(x) for x in zip(*parts, strict=True))
+
+
+def _range_of(codes: np.ndarray, batch: np.ndarray) -> slice:
+    """The slice of sorted ``codes`` between the first and last codes of ``batch``."""
+    return slice(
+        np.searchsorted(codes, batch[0], side="left"),
+        np.searchsorted(codes, batch[-1], side="right"),
+    )
+
+
+def _block_code(origins: np.ndarray, blocks: np.ndarray) -> np.ndarray:
+    """Flat index of the block of ``BLOCK`` cells holding each box origin."""
+    return np.ravel_multi_index(tuple((origins // BLOCK).T), tuple(blocks))
 
 
 def _refine(prog, grid: _Grid, p0, axis, f0, f1) -> np.ndarray:
