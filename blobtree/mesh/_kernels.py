@@ -66,6 +66,30 @@ EDGE_OFFSET = np.zeros((12, 3), dtype=np.int64)
 for _c0, _c1 in itertools.combinations(range(8), 2):
     if bin(_c0 ^ _c1).count("1") == 1:
         EDGE_OFFSET[_edge_of(_c0, _c1)] = _CORNERS[min(_c0, _c1)]
+#: NO_DIAGONAL[a, b]: cell edges a and b lie on a common lower face (x, y or z = 0) of the cell.
+#: A diagonal of a loop joining two edges of one face could also be drawn by the cell across
+#: that face, and four triangles would share it.  Such diagonals are left to the cell below the
+#: face (for which it is an upper face); diagonals joining edges with no common face belong to
+#: one cell only.
+NO_DIAGONAL = np.zeros((12, 12), dtype=np.bool_)
+for _f in range(6):
+    if _f % 2 == 0:  # the faces are ordered (axis, side): even ones are at side 0
+        NO_DIAGONAL[np.ix_(FACE_EDGES[_f], FACE_EDGES[_f])] = True
+
+
+@nb.njit(cache=True, inline="always")
+def _fan_apex(loop, start, n):
+    """Position in the loop of a fan apex with no diagonal in :data:`NO_DIAGONAL`, or -1 (the
+    loop then gets a vertex of its own at its centre, and a fan from there)."""
+    for a in range(n):
+        ok = True
+        for r in range(2, n - 1):
+            if NO_DIAGONAL[loop[start + a], loop[start + (a + r) % n]]:
+                ok = False
+                break
+        if ok:
+            return a
+    return -1
 
 
 @nb.njit(cache=True, inline="always")
@@ -125,42 +149,50 @@ def _cell_loops(v, iso, nxt, loops, loop_len):
     return n_loops
 
 
+@nb.njit(cache=True, inline="always")
+def _load_cell(values, blk, i, j, k, iso, v):
+    """Corner values of cell (i, j, k) of block ``blk`` into ``v``; True if the surface crosses."""
+    n_in = 0
+    for c in range(8):
+        v[c] = values[blk, i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2)]
+        n_in += v[c] >= iso
+    return 0 < n_in < 8
+
+
 @nb.njit(cache=True, parallel=True)
 def _block_counts(values, iso):
-    """(vertices, triangles) produced by each block of ``values`` (K, b+1, b+1, b+1)."""
+    """(edge vertices, centre vertices, triangles) produced by each block of ``values``."""
     nblk = values.shape[0]
     m = values.shape[1]
-    counts = np.zeros((nblk, 2), dtype=np.int64)
+    counts = np.zeros((nblk, 3), dtype=np.int64)
     for blk in nb.prange(nblk):
         nxt = np.empty(12, dtype=np.int64)
         loops = np.empty(12, dtype=np.int64)
         loop_len = np.empty(4, dtype=np.int64)
         v = np.empty(8)
-        nv = 0
-        nt = 0
         for i in range(m):
             for j in range(m):
                 for k in range(m):
                     inside = values[blk, i, j, k] >= iso
                     if i + 1 < m and (values[blk, i + 1, j, k] >= iso) != inside:
-                        nv += 1
+                        counts[blk, 0] += 1
                     if j + 1 < m and (values[blk, i, j + 1, k] >= iso) != inside:
-                        nv += 1
+                        counts[blk, 0] += 1
                     if k + 1 < m and (values[blk, i, j, k + 1] >= iso) != inside:
-                        nv += 1
+                        counts[blk, 0] += 1
                     if i + 1 == m or j + 1 == m or k + 1 == m:
                         continue
-                    n_in = 0
-                    for c in range(8):
-                        v[c] = values[blk, i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2)]
-                        n_in += v[c] >= iso
-                    if n_in == 0 or n_in == 8:
+                    if not _load_cell(values, blk, i, j, k, iso, v):
                         continue
-                    nl = _cell_loops(v, iso, nxt, loops, loop_len)
-                    for q in range(nl):
-                        nt += loop_len[q] - 2
-        counts[blk, 0] = nv
-        counts[blk, 1] = nt
+                    pos = 0
+                    for q in range(_cell_loops(v, iso, nxt, loops, loop_len)):
+                        n = loop_len[q]
+                        if _fan_apex(loops, pos, n) < 0:
+                            counts[blk, 1] += 1
+                            counts[blk, 2] += n
+                        else:
+                            counts[blk, 2] += n - 2
+                        pos += n
     return counts
 
 
@@ -169,23 +201,26 @@ def block_triangles(values, origins, dims, iso):
     """Contour every cell of a batch of blocks.
 
     ``values`` (K, b+1, b+1, b+1): samples of each block; ``origins`` (K, 3): each block's first
-    lattice point; ``dims`` (3,): lattice points per axis (for the keys).  Returns ``keys`` (V,)
-    lattice-edge keys of the vertices, ``f0``, ``f1`` (V,) the samples at each edge's ends, and
-    ``tris`` (T, 3) indices into those vertices, oriented outward (towards lower field).
-    Vertices on block faces appear once per block that uses them.
+    lattice point; ``dims`` (3,): lattice points per axis (for the keys).  Returns
+
+    * ``keys`` (V,): lattice-edge keys of the edge vertices, ``f0``, ``f1`` (V,) the samples at
+      each edge's ends (vertices on block faces appear once per block that uses them);
+    * ``centres`` (C, 3): lattice coordinates of the extra vertices at the centre of loops that
+      admit no safe fan (see :func:`_fan_apex`; rare, only at ambiguous faces);
+    * ``tris`` (T, 3): vertex indices, ``i >= 0`` an edge vertex, ``-1 - i`` centre ``i``;
+      oriented outward (counter-clockwise seen from the side of lower field).
     """
     nblk = values.shape[0]
     m = values.shape[1]
     counts = _block_counts(values, iso)
-    v_off = np.zeros(nblk + 1, dtype=np.int64)
-    t_off = np.zeros(nblk + 1, dtype=np.int64)
+    off = np.zeros((nblk + 1, 3), dtype=np.int64)
     for blk in range(nblk):
-        v_off[blk + 1] = v_off[blk] + counts[blk, 0]
-        t_off[blk + 1] = t_off[blk] + counts[blk, 1]
-    keys = np.empty(v_off[nblk], dtype=np.int64)
-    f0 = np.empty(v_off[nblk])
-    f1 = np.empty(v_off[nblk])
-    tris = np.empty((t_off[nblk], 3), dtype=np.int64)
+        off[blk + 1] = off[blk] + counts[blk]
+    keys = np.empty(off[nblk, 0], dtype=np.int64)
+    f0 = np.empty(off[nblk, 0])
+    f1 = np.empty(off[nblk, 0])
+    centres = np.empty((off[nblk, 1], 3))
+    tris = np.empty((off[nblk, 2], 3), dtype=np.int64)
     d1 = dims[1]
     d2 = dims[2]
     for blk in nb.prange(nblk):
@@ -194,23 +229,18 @@ def block_triangles(values, origins, dims, iso):
         loops = np.empty(12, dtype=np.int64)
         loop_len = np.empty(4, dtype=np.int64)
         v = np.empty(8)
-        cell_vid = np.empty(12, dtype=np.int64)
-        ov = v_off[blk]
-        ot = t_off[blk]
+        cell_vid = np.empty(13, dtype=np.int64)
+        ov, oc, ot = off[blk, 0], off[blk, 1], off[blk, 2]
         oi, oj, ok = origins[blk, 0], origins[blk, 1], origins[blk, 2]
         for i in range(m - 1):
             for j in range(m - 1):
                 for k in range(m - 1):
-                    n_in = 0
-                    for c in range(8):
-                        v[c] = values[blk, i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2)]
-                        n_in += v[c] >= iso
-                    if n_in == 0 or n_in == 8:
+                    if not _load_cell(values, blk, i, j, k, iso, v):
                         continue
-                    nl = _cell_loops(v, iso, nxt, loops, loop_len)
                     pos = 0
-                    for q in range(nl):
-                        for r in range(loop_len[q]):
+                    for q in range(_cell_loops(v, iso, nxt, loops, loop_len)):
+                        n = loop_len[q]
+                        for r in range(n):
                             e = loops[pos + r]
                             a = EDGE_AXIS[e]
                             li = i + EDGE_OFFSET[e, 0]
@@ -221,19 +251,43 @@ def block_triangles(values, origins, dims, iso):
                                 vid[slot] = ov
                                 keys[ov] = (((oi + li) * d1 + (oj + lj)) * d2 + (ok + lk)) * 3 + a
                                 f0[ov] = values[blk, li, lj, lk]
-                                f1[ov] = values[
-                                    blk, li + (a == 0), lj + (a == 1), lk + (a == 2)
-                                ]
+                                f1[ov] = values[blk, li + (a == 0), lj + (a == 1), lk + (a == 2)]
                                 ov += 1
                             cell_vid[r] = vid[slot]
-                        # the loop runs counter-clockwise about the inward direction: reverse
-                        for r in range(1, loop_len[q] - 1):
-                            tris[ot, 0] = cell_vid[0]
-                            tris[ot, 1] = cell_vid[r + 1]
-                            tris[ot, 2] = cell_vid[r]
-                            ot += 1
-                        pos += loop_len[q]
-    return keys, f0, f1, tris
+                        apex = _fan_apex(loops, pos, n)
+                        if apex < 0:  # a centre vertex, fanned around the whole loop
+                            centres[oc] = 0.0
+                            for r in range(n):
+                                w = cell_vid[r]
+                                x = _edge_point(loops[pos + r], f0[w], f1[w], iso)
+                                centres[oc, 0] += (oi + i + x[0]) / n
+                                centres[oc, 1] += (oj + j + x[1]) / n
+                                centres[oc, 2] += (ok + k + x[2]) / n
+                            cell_vid[n] = cell_vid[0]
+                            for r in range(n):
+                                tris[ot, 0] = -1 - oc
+                                tris[ot, 1] = cell_vid[r + 1]
+                                tris[ot, 2] = cell_vid[r]
+                                ot += 1
+                            oc += 1
+                        else:  # reversed: the loop runs counter-clockwise about the inside
+                            for r in range(1, n - 1):
+                                tris[ot, 0] = cell_vid[apex]
+                                tris[ot, 1] = cell_vid[(apex + r + 1) % n]
+                                tris[ot, 2] = cell_vid[(apex + r) % n]
+                                ot += 1
+                        pos += n
+    return keys, f0, f1, centres, tris
+
+
+@nb.njit(cache=True, inline="always")
+def _edge_point(e, f0, f1, iso):
+    """Linear-interpolation crossing on cell edge ``e``, in cell coordinates (3,)."""
+    x = np.empty(3)
+    for c in range(3):
+        x[c] = EDGE_OFFSET[e, c]
+    x[EDGE_AXIS[e]] += (iso - f0) / (f1 - f0)
+    return x
 
 
 @nb.njit(cache=True)

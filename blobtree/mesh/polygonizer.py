@@ -64,13 +64,15 @@ def polygonize(
     h = _cell_size(lo, hi, resolution, cell_size)
     budget = _available_memory() if max_memory is None else max_memory
     grid = _Grid(lo, hi, h, clip=bounds is not None)
-    keys, f0, f1, tris = _contour(prog, grid, _cull(prog, grid, budget), progress)
+    keys, f0, f1, centres, tris = _contour(prog, grid, _cull(prog, grid, budget), progress)
     keys, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
-    tris = inverse.reshape(-1)[tris].astype(np.int32 if len(keys) < 2**31 else np.int64)
+    inverse = inverse.reshape(-1)
+    tris = np.where(tris >= 0, inverse[np.maximum(tris, 0)], len(keys) - 1 - tris)
+    tris = tris.astype(np.int32 if len(keys) + len(centres) < 2**31 else np.int64)
     p0, axis = grid.edge_points(keys)
     t = _refine(prog, grid, p0, axis, f0[first], f1[first])
-    verts = p0.copy()
-    verts[np.arange(len(keys)), axis] += t * h
+    p0[np.arange(len(keys)), axis] += t * h
+    verts = np.concatenate([p0, _project(prog, grid, grid.origin + centres * h)])
     normals, colors = _shade(prog, verts, tris)
     return Mesh(verts, tris, normals, colors)
 
@@ -189,8 +191,8 @@ def _cull(prog, grid: _Grid, budget: int):
 
 
 def _contour(prog, grid: _Grid, boxes, progress: bool):
-    """Sample the blocks in batches and contour them; concatenated vertex records and triangles
-    (indices into the concatenated records).
+    """Sample the blocks in batches and contour them (see :func:`block_triangles`): edge vertex
+    records, centre vertices and triangles, concatenated over the batches.
 
     Each block of ``BLOCK`` cells is sampled only at the lattice points of its boxes that the
     surface may cross; its other points take the value at the centre of a box proved free of
@@ -205,13 +207,16 @@ def _contour(prog, grid: _Grid, boxes, progress: bool):
     order_k, order_f = np.argsort(kept_block, kind="stable"), np.argsort(free_block, kind="stable")
     kept, kept_block = kept[order_k], kept_block[order_k]
     free, free_size, free_value, free_block = (
-        free[order_f], free_size[order_f], free_value[order_f], free_block[order_f]
+        free[order_f],
+        free_size[order_f],
+        free_value[order_f],
+        free_block[order_f],
     )
     blocks = np.unique(kept_block)
     m = BLOCK + 1
     per_batch = max(1, BATCH_POINTS // m**3)
     parts = []
-    offset = 0
+    n_keys = n_centres = 0
     with tqdm(total=len(blocks), unit="block", disable=not progress, leave=False) as bar:
         for start in range(0, len(blocks), per_batch):
             batch = blocks[start : start + per_batch]
@@ -230,12 +235,20 @@ def _contour(prog, grid: _Grid, boxes, progress: bool):
                 BLOCK,
             )
             values.reshape(-1)[flat] = grid.field(prog, grid.origin + coords * grid.h)
-            keys, f0, f1, tris = block_triangles(values, origins, grid.dims, ISO)
-            parts.append((keys, f0, f1, tris + offset))
-            offset += len(keys)
+            keys, f0, f1, centres, tris = block_triangles(values, origins, grid.dims, ISO)
+            tris = np.where(tris >= 0, tris + n_keys, tris - n_centres)
+            parts.append((keys, f0, f1, centres, tris))
+            n_keys += len(keys)
+            n_centres += len(centres)
             bar.update(len(batch))
     if not parts:
-        return np.zeros(0, np.int64), np.zeros(0), np.zeros(0), np.zeros((0, 3), np.int64)
+        return (
+            np.zeros(0, np.int64),
+            np.zeros(0),
+            np.zeros(0),
+            np.zeros((0, 3)),
+            np.zeros((0, 3), np.int64),
+        )
     return tuple(np.concatenate(x) for x in zip(*parts, strict=True))
 
 
@@ -272,6 +285,19 @@ def _refine(prog, grid: _Grid, p0, axis, f0, f1) -> np.ndarray:
         tb, gb = np.where(new_a, tb, t), np.where(new_a, gb, g)
         last_a, last_b = new_a, ~new_a
     return np.clip(_secant(ta, tb, ga, gb), 1e-4, 1.0 - 1e-4)
+
+
+def _project(prog, grid: _Grid, p: np.ndarray) -> np.ndarray:
+    """Two Newton steps along the gradient towards the iso-surface, each at most half a cell."""
+    for _ in range(2):
+        if len(p) == 0:
+            break
+        f, g, _ = prog.evaluate(p)
+        g2 = np.einsum("ij,ij->i", g, g)
+        step = -np.divide(f - ISO, g2, out=np.zeros_like(g2), where=g2 > 0)[:, None] * g
+        norm = np.linalg.norm(step, axis=1)
+        p = p + step * np.minimum(1.0, 0.5 * grid.h / np.maximum(norm, 1e-300))[:, None]
+    return p
 
 
 def _secant(ta, tb, ga, gb) -> np.ndarray:
