@@ -196,8 +196,7 @@ def _block_counts(values, iso):
     return counts
 
 
-@nb.njit(cache=True, parallel=True)
-def block_triangles(values, origins, dims, iso):
+def block_triangles(values: np.ndarray, origins: np.ndarray, dims: np.ndarray, iso: float):
     """Contour every cell of a batch of blocks.
 
     ``values`` (K, b+1, b+1, b+1): samples of each block; ``origins`` (K, 3): each block's first
@@ -210,17 +209,23 @@ def block_triangles(values, origins, dims, iso):
     * ``tris`` (T, 3): vertex indices, ``i >= 0`` an edge vertex, ``-1 - i`` centre ``i``;
       oriented outward (counter-clockwise seen from the side of lower field).
     """
+    counts = _block_counts(values, iso)
+    off = np.zeros((len(values) + 1, 3), dtype=np.int64)
+    np.cumsum(counts, axis=0, out=off[1:])
+    keys = np.empty(off[-1, 0], dtype=np.int64)
+    f0 = np.empty(off[-1, 0])
+    f1 = np.empty(off[-1, 0])
+    centres = np.empty((off[-1, 1], 3))
+    tris = np.empty((off[-1, 2], 3), dtype=np.int64)
+    _block_fill(values, origins, dims, iso, off, keys, f0, f1, centres, tris)
+    return keys, f0, f1, centres, tris
+
+
+@nb.njit(cache=True, parallel=True)
+def _block_fill(values, origins, dims, iso, off, keys, f0, f1, centres, tris):
+    """The work of :func:`block_triangles`, each block writing from its offsets ``off``."""
     nblk = values.shape[0]
     m = values.shape[1]
-    counts = _block_counts(values, iso)
-    off = np.zeros((nblk + 1, 3), dtype=np.int64)
-    for blk in range(nblk):
-        off[blk + 1] = off[blk] + counts[blk]
-    keys = np.empty(off[nblk, 0], dtype=np.int64)
-    f0 = np.empty(off[nblk, 0])
-    f1 = np.empty(off[nblk, 0])
-    centres = np.empty((off[nblk, 1], 3))
-    tris = np.empty((off[nblk, 2], 3), dtype=np.int64)
     d1 = dims[1]
     d2 = dims[2]
     for blk in nb.prange(nblk):
@@ -277,7 +282,6 @@ def block_triangles(values, origins, dims, iso):
                                 tris[ot, 2] = cell_vid[(apex + r) % n]
                                 ot += 1
                         pos += n
-    return keys, f0, f1, centres, tris
 
 
 @nb.njit(cache=True, inline="always")
