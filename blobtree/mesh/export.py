@@ -13,6 +13,12 @@ import numpy as np
 FORMATS = {".ply": "ply", ".obj": "obj", ".stl": "stl", ".glb": "glb"}
 
 
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
 @dataclass
 class Mesh:
     """An indexed triangle mesh with per-vertex normals and colours (RGB in [0, 1]).
@@ -87,6 +93,7 @@ class Mesh:
         try:
             with os.fdopen(fd, "wb") as fh:
                 fh.write(data)
+            os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes it private
             os.replace(tmp, path)
         except BaseException:
             os.unlink(tmp)

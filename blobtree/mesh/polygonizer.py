@@ -28,13 +28,13 @@ from .export import Mesh
 
 ISO = 0.5
 #: cells per side of the blocks sampled and contoured together
-BLOCK = 8
+BLOCK = 16
 #: cells per side of the smallest boxes culled
 FINE = 2
 #: lattice points sampled per streamed batch of blocks
 BATCH_POINTS = 1 << 21
 #: Illinois steps per vertex
-REFINE_STEPS = 4
+REFINE_STEPS = 3
 #: estimated bytes of peak memory per output triangle (mesh plus working arrays)
 BYTES_PER_TRIANGLE = 160
 #: estimated triangles per cell of block face area crossed by the surface
@@ -72,6 +72,8 @@ def polygonize(
     p0, axis = grid.edge_points(keys)
     t = _refine(prog, grid, p0, axis, f0[first], f1[first])
     p0[np.arange(len(keys)), axis] += t * h
+    if grid.clip:  # the cap lies on the bounds; bracketing converges slowly onto the jump
+        np.clip(p0, lo, hi, out=p0)
     verts = np.concatenate([p0, _project(prog, grid, grid.origin + centres * h)])
     normals, colors = _shade(prog, verts, tris)
     return Mesh(verts, tris, normals, colors)
@@ -164,7 +166,7 @@ def _cull(prog, grid: _Grid, budget: int):
         centre = 0.5 * (lo + hi)
         half_diag = 0.5 * np.linalg.norm(hi - lo, axis=1)
         lip = prog.lipschitz(lo, hi)
-        fc = grid.field(prog, centre) if len(origins) else np.zeros(0)
+        fc = prog.field(centre) if len(origins) else np.zeros(0)  # unclipped, as L bounds it
         reach = lip * half_diag * (1.0 + 1e-9) + 1e-12
         keep = (lip > 0) & (np.abs(fc - ISO) <= reach)
         if grid.clip:  # boxes on the bounds may hold the cap where the bounds cut the solid
@@ -266,24 +268,26 @@ def _block_code(origins: np.ndarray, blocks: np.ndarray) -> np.ndarray:
 
 
 def _refine(prog, grid: _Grid, p0, axis, f0, f1) -> np.ndarray:
-    """Parameter t in (0, 1) of the iso crossing on each lattice edge (Illinois method)."""
+    """Parameter t in (0, 1) of the iso crossing on each lattice edge: regula falsi with the
+    Anderson-Bjorck weighting (Anderson & Bjorck, BIT 13, 1973), keeping a bracket [a, b]."""
     rows = np.arange(len(p0))
     ta, tb = np.zeros(len(p0)), np.ones(len(p0))
     ga, gb = f0 - ISO, f1 - ISO
-    last_a = np.zeros(len(p0), dtype=bool)  # end a was replaced last step
-    last_b = np.zeros(len(p0), dtype=bool)
+    recent_a = recent_b = np.zeros(len(p0), dtype=bool)  # which end the last step replaced
     for _ in range(REFINE_STEPS):
         t = _secant(ta, tb, ga, gb)
         p = p0.copy()
         p[rows, axis] += t * grid.h
         g = grid.field(prog, p) - ISO
         new_a = (ga >= 0) == (g >= 0)  # t lies on a's side: it replaces a, else b
-        # Illinois: halve the value at an end kept twice in a row
-        gb = np.where(new_a & last_a, 0.5 * gb, gb)
-        ga = np.where(~new_a & last_b, 0.5 * ga, ga)
-        ta, ga = np.where(new_a, t, ta), np.where(new_a, g, ga)
-        tb, gb = np.where(new_a, tb, t), np.where(new_a, gb, g)
-        last_a, last_b = new_a, ~new_a
+        # an end kept twice in a row is weighted by 1 - g / g(end replaced), or 1/2
+        g_old = np.where(new_a, ga, gb)
+        m = 1.0 - np.divide(g, g_old, out=np.zeros_like(g), where=g_old != 0)
+        m = np.where(m > 0, m, 0.5)
+        ga = np.where(new_a, g, np.where(recent_b, ga * m, ga))
+        gb = np.where(new_a, np.where(recent_a, gb * m, gb), g)
+        ta, tb = np.where(new_a, t, ta), np.where(new_a, tb, t)
+        recent_a, recent_b = new_a, ~new_a
     return np.clip(_secant(ta, tb, ga, gb), 1e-4, 1.0 - 1e-4)
 
 

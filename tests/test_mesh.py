@@ -1,0 +1,301 @@
+"""The polygonizer: closed oriented manifolds, accuracy, culling, limits, export."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import trimesh
+from click.testing import CliRunner
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import blobtree as bt
+from blobtree.cli.mesh_cmd import mesh as mesh_cmd
+from blobtree.mesh import Mesh, polygonize
+from blobtree.mesh._kernels import block_triangles
+from tests.trees import trees
+
+
+def vertex_manifold(m: Mesh) -> bool:
+    """Every vertex's faces form one fan: the link edges make a single cycle."""
+    links: dict[int, list[tuple[int, int]]] = {}
+    for a, b, c in m.faces.tolist():
+        links.setdefault(a, []).append((b, c))
+        links.setdefault(b, []).append((c, a))
+        links.setdefault(c, []).append((a, b))
+    for edges in links.values():
+        nxt = dict(edges)
+        if len(nxt) != len(edges):
+            return False
+        start = edges[0][0]
+        v, steps = nxt[start], 1
+        while v != start and v in nxt and steps <= len(edges):
+            v, steps = nxt[v], steps + 1
+        if v != start or steps != len(edges):
+            return False
+    return True
+
+
+def components(m: Mesh) -> int:
+    return len(trimesh.graph.connected_components(m.to_trimesh().face_adjacency,
+                                                  nodes=np.arange(len(m.faces))))
+
+
+def assert_closed_manifold(m: Mesh) -> None:
+    assert len(m.faces) > 0
+    assert m.is_watertight
+    assert vertex_manifold(m)
+    assert m.to_trimesh().volume > 0  # outward winding
+
+
+def assert_spheres(m: Mesh, count: int) -> None:
+    assert_closed_manifold(m)
+    assert components(m) == count
+    assert m.euler_characteristic == 2 * count
+
+
+# --- the kernel on arbitrary lattice values ---------------------------------------------------
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.booleans())
+def test_kernel_is_watertight_on_noise(seed, quantized):
+    """Random samples (every ambiguous face and cell case; exact iso values when quantized)."""
+    rng = np.random.default_rng(seed)
+    m = 8
+    v = rng.random((1, m, m, m))
+    if quantized:
+        v = np.round(v * 4) / 4  # many samples exactly 0.5
+    for axis in (1, 2, 3):  # outside on the lattice border, so the surface closes
+        idx = [slice(None)] * 4
+        idx[axis] = [0, m - 1]
+        v[tuple(idx)] = 0.0
+    keys, _, _, centres, tris = block_triangles(v, np.zeros((1, 3), np.int64),
+                                                np.array([m, m, m]), 0.5)
+    tris = np.where(tris >= 0, tris, len(keys) - 1 - tris)
+    z = np.zeros((len(keys) + len(centres), 3))
+    mesh = Mesh(z, tris, z, z)
+    assert mesh.is_watertight
+    assert vertex_manifold(mesh)
+
+
+# --- scenes ----------------------------------------------------------------------------------
+
+
+def test_lone_point_matches_the_sphere_of_radius_r_over_2():
+    m = polygonize(bt.Point(radius=2.0, center=(0.3, -0.2, 0.1)), resolution=64)
+    assert_spheres(m, 1)
+    tm = m.to_trimesh()
+    assert tm.volume == pytest.approx(4.0 / 3.0 * math.pi, rel=5e-3)
+    assert tm.area == pytest.approx(4.0 * math.pi, rel=5e-3)
+    r = np.linalg.norm(m.vertices - (0.3, -0.2, 0.1), axis=1)
+    assert np.abs(r - 1.0).max() < 1e-4
+
+
+def test_vertices_lie_on_the_iso_surface():
+    tree = bt.Point(radius=1.0) + bt.Segment((0.3, 0, 0), (1.2, 0.4, 0), radius=0.6)
+    m = polygonize(tree, resolution=40)
+    err = np.abs(tree.program().field(m.vertices) - 0.5)
+    # linear interpolation alone leaves errors near 1e-2 here
+    assert err.max() < 1e-3
+    assert np.percentile(err, 99) < 1e-5
+
+
+def test_normals_point_out_and_agree_with_faces():
+    tree = (bt.Point(radius=1.0) + bt.Point(radius=0.8, center=(0.7, 0.2, 0))).color((1, 0, 0))
+    m = polygonize(tree, resolution=32)
+    fn = m.to_trimesh().face_normals
+    vn = m.normals[m.faces].sum(axis=1)
+    assert np.mean(np.einsum("ij,ij->i", fn, vn) > 0) > 0.999
+    assert np.allclose(np.linalg.norm(m.normals, axis=1), 1.0)
+    assert np.allclose(m.colors, (1, 0, 0))
+
+
+def test_whorl126_is_closed_and_manifold():
+    m = polygonize(bt.models.whorl126(), resolution=48)
+    assert_closed_manifold(m)
+    assert components(m) == 1
+
+
+def test_difference_with_creases():
+    tree = bt.Point(radius=2.0) - bt.Point(radius=1.6, center=(0.9, 0.3, 0))
+    assert_spheres(polygonize(tree, resolution=40), 1)
+    tree = bt.Point(radius=2.0) & bt.Segment((-1, 0, 0), (1, 0, 0), radius=1.2)
+    assert_spheres(polygonize(tree, resolution=40), 1)
+
+
+def test_separate_components():
+    tree = bt.Point(radius=1.0) + bt.Point(radius=0.6, center=(2, 0, 0)) | bt.Torus(
+        major_radius=1.0, radius=0.4).translate(0, 3, 0)
+    m = polygonize(tree, resolution=64)
+    assert_closed_manifold(m)
+    assert components(m) == 3
+    assert m.euler_characteristic == 2 + 2 + 0  # two spheres and a torus
+
+
+def test_warped_primitives():
+    tree = bt.Segment((0, 0, 0), (2, 0, 0), radius=0.6).bend(60, 2.0, axis="x", toward="y")
+    tree = tree + bt.Cone((0, 0, 0), (0, 2, 0), radius_a=0.8, radius_b=0.3).twist(45, axis="y")
+    assert_spheres(polygonize(tree, resolution=48), 1)
+
+
+def test_bounds_cut_the_solid_and_cap_it():
+    lo, hi = np.array([-1.2, -1.2, -1.2]), np.array([1.2, 1.2, 0.0])
+    m = polygonize(bt.Point(radius=2.0), resolution=48, bounds=(lo, hi))
+    assert_spheres(m, 1)
+    assert m.vertices[:, 2].max() <= 1e-12
+    assert m.to_trimesh().volume == pytest.approx(2.0 / 3.0 * math.pi, rel=1e-2)
+
+
+def test_cell_size_form_equals_resolution_form():
+    tree = bt.Point(radius=1.0)
+    lo, hi = tree.program().bounds
+    a = polygonize(tree, resolution=20)
+    b = polygonize(tree, cell_size=float(np.max(hi - lo)) / 20)
+    assert np.array_equal(a.faces, b.faces) and np.allclose(a.vertices, b.vertices)
+
+
+@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(trees(max_leaves=5))
+def test_random_trees_mesh_closed(tree):
+    m = polygonize(tree, resolution=24)
+    if len(m.faces):
+        assert m.is_watertight
+        assert vertex_manifold(m)
+
+
+# --- cost follows the surface ----------------------------------------------------------------
+
+
+class CountingProgram:
+    """A program that counts the points evaluated."""
+
+    def __init__(self, prog):
+        self.prog, self.bounds, self.points = prog, prog.bounds, []
+
+    def field(self, P):
+        self.points.append(np.array(P))
+        return self.prog.field(P)
+
+    def evaluate(self, P):
+        self.points.append(np.array(P))
+        return self.prog.evaluate(P)
+
+    def lipschitz(self, lo, hi):
+        return self.prog.lipschitz(lo, hi)
+
+
+def test_samples_follow_the_surface():
+    prog = bt.Point(radius=2.0).program()
+    counts = {}
+    for n in (64, 128):
+        counting = CountingProgram(prog)
+        polygonize(counting, resolution=n)
+        pts = np.concatenate(counting.points)
+        counts[n] = len(pts)
+        r = np.linalg.norm(pts, axis=1)
+        # far from the surface (at r = 1) only the centres of the culled octree boxes
+        assert np.mean(np.abs(r - 1.0) > 0.5) < 0.05
+    assert counts[128] < 0.1 * 129**3  # of the dense lattice
+    assert counts[128] / counts[64] < 5.0  # about 4x per doubling, not 8x
+
+
+# --- limits and errors -----------------------------------------------------------------------
+
+
+def test_refuses_a_resolution_that_does_not_fit():
+    with pytest.raises(ValueError, match="resolution too large.*GiB"):
+        polygonize(bt.Point(radius=1.0), resolution=10**6)
+    with pytest.raises(ValueError, match="resolution too large"):
+        polygonize(bt.Point(radius=1.0), resolution=200, max_memory=10**6)
+
+
+@pytest.mark.parametrize(
+    "kwargs, word",
+    [
+        ({"resolution": 1}, "resolution"),
+        ({"resolution": 10.5}, "resolution"),
+        ({"cell_size": -1.0}, "cell_size"),
+        ({"cell_size": float("nan")}, "cell_size"),
+        ({"resolution": 10, "cell_size": 0.1}, "either"),
+        ({"bounds": ((0, 0, 0), (1, 1))}, "bounds"),
+        ({"bounds": ((0, 0, 0), (1, -1, 1))}, "bounds"),
+    ],
+)
+def test_bad_arguments(kwargs, word):
+    with pytest.raises(ValueError, match=word):
+        polygonize(bt.Point(radius=1.0), **kwargs)
+
+
+# --- export ----------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def small_mesh():
+    tree = (bt.Point(radius=1.0).color((0.9, 0.2, 0.1))
+            + bt.Point(radius=1.0, center=(0.8, 0, 0)).color((0.1, 0.3, 0.9)))
+    return polygonize(tree, resolution=24)
+
+
+@pytest.mark.parametrize("ext", [".ply", ".obj", ".stl", ".glb"])
+def test_formats_round_trip(small_mesh, tmp_path, ext):
+    path = small_mesh.save(tmp_path / f"m{ext}")
+    loaded = trimesh.load(path, force="mesh", process=ext != ".stl")
+    assert len(loaded.faces) == len(small_mesh.faces)
+    if ext == ".stl":
+        loaded.merge_vertices()
+    assert loaded.is_watertight
+    assert loaded.volume == pytest.approx(small_mesh.to_trimesh().volume, rel=1e-4)
+    if ext == ".ply":
+        rgb = loaded.visual.vertex_colors[:, :3] / 255.0
+        assert rgb[:, 0].max() > 0.8 and rgb[:, 2].max() > 0.8
+    assert list(tmp_path.iterdir()) == [path]
+
+
+def test_save_is_atomic(small_mesh, tmp_path, monkeypatch):
+    """An error or Ctrl-C while writing leaves the old file whole and no temporary behind."""
+    import os
+
+    path = tmp_path / "m.ply"
+    path.write_bytes(b"old")
+
+    def interrupted(src, dst):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(os, "replace", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        small_mesh.save(path)
+    monkeypatch.undo()
+
+    def failing_export(self, file_type):
+        raise RuntimeError("exporter failed")
+
+    monkeypatch.setattr(trimesh.Trimesh, "export", failing_export)
+    with pytest.raises(RuntimeError):
+        small_mesh.save(path)
+    with pytest.raises(RuntimeError):
+        small_mesh.save(tmp_path / "new.ply")
+    assert path.read_bytes() == b"old"
+    assert list(tmp_path.iterdir()) == [path]
+
+
+def test_save_rejects_unknown_extension(small_mesh, tmp_path):
+    with pytest.raises(ValueError, match=r"\.xyz.*\.ply"):
+        small_mesh.save(tmp_path / "m.xyz")
+
+
+# --- command line ----------------------------------------------------------------------------
+
+
+def test_cli_mesh(tmp_path):
+    scene = tmp_path / "s.json"
+    bt.save(bt.Point(radius=1.0) + bt.Point(radius=1.0, center=(0.9, 0, 0)), scene)
+    out = tmp_path / "out.ply"
+    r = CliRunner().invoke(mesh_cmd, [str(scene), "-o", str(out), "--resolution", "24"])
+    assert r.exit_code == 0, r.output
+    assert "triangles" in r.output and "watertight: yes" in r.output
+    assert trimesh.load(out).is_watertight
+    r = CliRunner().invoke(mesh_cmd, [str(scene), "-o", str(out), "--resolution", "1000000"])
+    assert r.exit_code != 0 and "resolution too large" in r.output
