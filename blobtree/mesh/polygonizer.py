@@ -23,7 +23,8 @@ import os
 
 import numpy as np
 
-from ._kernels import block_triangles, paint_blocks
+from ._kernels import block_triangles
+from ._lattice import SAMPLED, gather, new_store, paint_rest, seeds, spread
 from .export import Mesh
 
 ISO = 0.5
@@ -132,7 +133,10 @@ class _Grid:
 
     def field(self, prog, points: np.ndarray) -> np.ndarray:
         """The field, 0 outside the bounds (this caps the solid where the bounds cut it)."""
-        f = prog.field(points)
+        return self.clip_values(points, prog.field(points))
+
+    def clip_values(self, points: np.ndarray, f: np.ndarray) -> np.ndarray:
+        """Field values ``f`` at ``points``, set to 0 outside the bounds."""
         if not self.clip:  # the padding lies outside the tree's bounds: the field is 0 there
             return f
         out = np.any((points < self.lo) | (points > self.hi), axis=1)
@@ -148,9 +152,10 @@ class _Grid:
 def _cull(prog, grid: _Grid, budget: int):
     """Octree descent from blocks of ``BLOCK << levels`` cells down to ``FINE`` cells.
 
-    Returns the lattice origins (K, 3) of the finest boxes the surface may cross, and the boxes
-    smaller than ``BLOCK`` proved free of it: origins (C, 3), sizes (C,) and the field at their
-    centres (C,), whose side of the iso-value holds over the whole closed box.
+    Returns the lattice origins (K, 3) of the finest boxes the surface may cross and the field
+    at their centres (K,) (lattice points); and the boxes smaller than ``BLOCK`` proved free of
+    it: origins (C, 3), sizes (C,) and the field at their centres (C,), whose side of the
+    iso-value holds over the whole closed box.
     """
     levels = max(0, math.ceil(math.log2(max(1, int(grid.blocks.max())) / 4)))
     size = BLOCK << levels  # cells per side of the top-level blocks
@@ -176,7 +181,7 @@ def _cull(prog, grid: _Grid, budget: int):
             empty[0].append(origins[~keep])
             empty[1].append(np.full(np.count_nonzero(~keep), size))
             empty[2].append(fc[~keep])
-        origins = origins[keep]
+        origins, kept_value = origins[keep], fc[keep]
         estimate = len(origins) * size * size * TRIANGLES_PER_CELL * BYTES_PER_TRIANGLE
         if estimate > budget:
             raise ValueError(
@@ -186,63 +191,33 @@ def _cull(prog, grid: _Grid, budget: int):
                 "use a smaller resolution or larger cell_size"
             )
         if size == FINE:
-            return origins, *(np.concatenate(x) for x in empty)
+            centres = grid.origin + (origins + FINE // 2) * grid.h
+            return origins, grid.clip_values(centres, kept_value), *map(np.concatenate, empty)
         size //= 2
         origins = (origins[:, None, :] + children[None, :, :] * size).reshape(-1, 3)
         origins = origins[np.all(origins < limit, axis=1)]
 
 
 def _contour(prog, grid: _Grid, boxes, progress: bool):
-    """Sample the blocks in batches and contour them (see :func:`block_triangles`): edge vertex
-    records, centre vertices and triangles, concatenated over the batches.
-
-    Each block of ``BLOCK`` cells is sampled only at the lattice points of its boxes that the
-    surface may cross; its other points take the value at the centre of a box proved free of
-    the surface that holds them, which has the right side of the iso-value.
-    """
+    """Sample the lattice near the surface and contour it (see :func:`block_triangles`): edge
+    vertex records, centre vertices and triangles, concatenated over batches of blocks."""
     from tqdm import tqdm
 
-    kept, free, free_size, free_value = boxes
-    nb = grid.blocks
-    kept_block = _block_code(kept, nb)
-    free_block = _block_code(free, nb)
-    order_k, order_f = np.argsort(kept_block, kind="stable"), np.argsort(free_block, kind="stable")
-    kept, kept_block = kept[order_k], kept_block[order_k]
-    free, free_size, free_value, free_block = (
-        free[order_f],
-        free_size[order_f],
-        free_value[order_f],
-        free_block[order_f],
-    )
-    blocks = np.unique(kept_block)
-    m = BLOCK + 1
-    per_batch = max(1, BATCH_POINTS // m**3)
-    parts = []
-    n_keys = n_centres = 0
-    with tqdm(total=len(blocks), unit="block", disable=not progress, leave=False) as bar:
-        for start in range(0, len(blocks), per_batch):
-            batch = blocks[start : start + per_batch]
-            ks = _range_of(kept_block, batch)
-            fs = _range_of(free_block, batch)
-            origins = np.stack(np.unravel_index(batch, tuple(nb)), axis=1) * BLOCK
-            values, flat, coords = paint_blocks(
-                origins,
-                np.searchsorted(batch, kept_block[ks]),
-                kept[ks],
-                FINE,
-                np.searchsorted(batch, free_block[fs]),
-                free[fs],
-                free_size[fs],
-                free_value[fs],
-                BLOCK,
+    with tqdm(total=3, unit="stage", disable=not progress, leave=False) as bar:
+        values, block_origins = _sample(prog, grid, boxes, bar)
+        parts = []
+        n_keys = n_centres = 0
+        per_batch = max(1, BATCH_POINTS // values[0].size)
+        for start in range(0, len(values), per_batch):
+            batch = slice(start, start + per_batch)
+            keys, f0, f1, centres, tris = block_triangles(
+                values[batch], block_origins[batch], grid.dims, ISO
             )
-            values.reshape(-1)[flat] = grid.field(prog, grid.origin + coords * grid.h)
-            keys, f0, f1, centres, tris = block_triangles(values, origins, grid.dims, ISO)
             tris = np.where(tris >= 0, tris + n_keys, tris - n_centres)
             parts.append((keys, f0, f1, centres, tris))
             n_keys += len(keys)
             n_centres += len(centres)
-            bar.update(len(batch))
+        bar.update()
     if not parts:
         return (
             np.zeros(0, np.int64),
@@ -254,12 +229,74 @@ def _contour(prog, grid: _Grid, boxes, progress: bool):
     return tuple(np.concatenate(x) for x in zip(*parts, strict=True))
 
 
-def _range_of(codes: np.ndarray, batch: np.ndarray) -> slice:
-    """The slice of sorted ``codes`` between the first and last codes of ``batch``."""
-    return slice(
-        np.searchsorted(codes, batch[0], side="left"),
-        np.searchsorted(codes, batch[-1], side="right"),
+def _sample(prog, grid: _Grid, boxes, bar) -> tuple[np.ndarray, np.ndarray]:
+    """Lattice values (B, BLOCK+1, BLOCK+1, BLOCK+1) of the blocks holding kept boxes, and the
+    blocks' origins (B, 3).
+
+    1. Points of free boxes take the field at the box centre: the right side of 0.5.
+    2. Every kept box is sampled at its corners and centre (a body-centred lattice of spacing
+       ``FINE``: any part of the solid or of its complement that holds a ball of diameter
+       1.12 * FINE cells contains one of these samples).
+    3. Boxes whose nine samples are not all on one side, and then every kept box across a face
+       on which a lattice edge crosses the surface, are sampled whole, until no crossed face
+       leads to a box not yet sampled.  Crossings are followed, not searched for.
+    4. The other points of kept boxes take their box's side.
+    """
+    kept, kept_value, free, free_size, free_value = boxes
+    nb = grid.blocks
+    kept_code = _block_code(kept, nb)
+    codes, kept_slot = np.unique(kept_code, return_inverse=True)
+    block_origins = np.stack(np.unravel_index(codes, tuple(nb)), axis=1) * BLOCK
+    block_of = np.full(tuple(nb), -1, dtype=np.int64)
+    block_of.reshape(-1)[codes] = np.arange(len(codes))
+    free_slot = block_of.reshape(-1)[_block_code(free, nb)]
+    has = free_slot >= 0
+    values, state, boxmap = new_store(
+        len(codes),
+        BLOCK,
+        FINE,
+        kept_slot,
+        kept - block_origins[kept_slot],
+        kept_value,
+        free_slot[has],
+        free[has] - block_origins[free_slot[has]],
+        free_size[has],
+        free_value[has],
     )
+
+    def sample(box_ids, offsets):
+        flat, coords = gather(
+            state, box_ids, kept_slot, kept - block_origins[kept_slot], offsets, block_origins
+        )
+        values.reshape(-1)[flat] = grid.field(prog, grid.origin + coords * grid.h)
+        state.reshape(-1)[flat] = SAMPLED
+
+    kept_loc = kept - block_origins[kept_slot]
+    corners = np.stack(np.meshgrid(*([[0, FINE]] * 3), indexing="ij"), -1).reshape(-1, 3)
+    whole = np.stack(np.meshgrid(*([np.arange(FINE + 1)] * 3), indexing="ij"), -1)
+    whole = whole.reshape(-1, 3)
+    sample(np.arange(len(kept)), corners)
+    bar.update()
+    active = seeds(values, kept_slot, kept_loc, FINE, ISO)
+    frontier = np.flatnonzero(active)
+    while len(frontier):
+        sample(frontier, whole)
+        frontier = spread(
+            values,
+            frontier,
+            active,
+            kept_slot,
+            kept_loc,
+            boxmap,
+            block_of,
+            block_origins,
+            BLOCK,
+            FINE,
+            ISO,
+        )
+    paint_rest(values, state, active, kept_slot, kept_loc, kept_value, FINE)
+    bar.update()
+    return values, block_origins
 
 
 def _block_code(origins: np.ndarray, blocks: np.ndarray) -> np.ndarray:

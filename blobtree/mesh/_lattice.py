@@ -1,0 +1,171 @@
+"""The sparse lattice the polygonizer samples: numba kernels over blocks of ``block`` cells.
+
+Each block holds the values of its ``(block + 1)**3`` lattice points and a state per point.
+Blocks are tiled by boxes of ``fine`` cells: boxes the culling kept ("kept") and boxes it proved
+free of the surface ("free", of any size below a block).  See ``polygonizer._sample``.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+UNKNOWN, SAMPLED, PAINTED, QUEUED = 0, 1, 2, 3
+
+
+@nb.njit(cache=True)
+def new_store(
+    nblocks,
+    block,
+    fine,
+    kept_slot,
+    kept_loc,
+    kept_value,
+    free_slot,
+    free_loc,
+    free_size,
+    free_value,
+):
+    """Values, states and the kept-box map ``(B, s, s, s)`` (s = block / fine) of the blocks.
+
+    Free boxes are painted with the field at their centre (the side of the iso-value holds over
+    the whole closed box); the centres of kept boxes, sampled by the culling, are stored.
+    """
+    m = block + 1
+    s = block // fine
+    values = np.zeros((nblocks, m, m, m))
+    state = np.zeros((nblocks, m, m, m), dtype=np.uint8)
+    boxmap = np.full((nblocks, s, s, s), -1, dtype=np.int64)
+    for q in range(free_slot.shape[0]):
+        b, w = free_slot[q], free_size[q]
+        i, j, k = free_loc[q, 0], free_loc[q, 1], free_loc[q, 2]
+        values[b, i : i + w + 1, j : j + w + 1, k : k + w + 1] = free_value[q]
+        state[b, i : i + w + 1, j : j + w + 1, k : k + w + 1] = PAINTED
+    half = fine // 2
+    for q in range(kept_slot.shape[0]):
+        b = kept_slot[q]
+        i, j, k = kept_loc[q, 0], kept_loc[q, 1], kept_loc[q, 2]
+        boxmap[b, i // fine, j // fine, k // fine] = q
+        values[b, i + half, j + half, k + half] = kept_value[q]
+        state[b, i + half, j + half, k + half] = SAMPLED
+    return values, state, boxmap
+
+
+@nb.njit(cache=True)
+def gather(state, boxes, kept_slot, kept_loc, offsets, block_origins):
+    """Points of the given kept boxes at ``offsets`` (P, 3) not sampled yet, each once: their
+    flat indices into the store (S,) and lattice coordinates (S, 3).  Marks them queued."""
+    m = state.shape[1]
+    flat = np.empty(boxes.shape[0] * offsets.shape[0], dtype=np.int64)
+    coords = np.empty((flat.shape[0], 3), dtype=np.int64)
+    n = 0
+    for q in boxes:
+        b = kept_slot[q]
+        for p in range(offsets.shape[0]):
+            i = kept_loc[q, 0] + offsets[p, 0]
+            j = kept_loc[q, 1] + offsets[p, 1]
+            k = kept_loc[q, 2] + offsets[p, 2]
+            if state[b, i, j, k] == SAMPLED or state[b, i, j, k] == QUEUED:
+                continue
+            state[b, i, j, k] = QUEUED
+            flat[n] = ((b * m + i) * m + j) * m + k
+            coords[n, 0] = block_origins[b, 0] + i
+            coords[n, 1] = block_origins[b, 1] + j
+            coords[n, 2] = block_origins[b, 2] + k
+            n += 1
+    return flat[:n], coords[:n]
+
+
+@nb.njit(cache=True)
+def seeds(values, kept_slot, kept_loc, fine, iso):
+    """Kept boxes whose corners and centre are not all on one side of the iso-value."""
+    out = np.zeros(kept_slot.shape[0], dtype=np.bool_)
+    half = fine // 2
+    for q in range(kept_slot.shape[0]):
+        b = kept_slot[q]
+        i, j, k = kept_loc[q, 0], kept_loc[q, 1], kept_loc[q, 2]
+        inside = values[b, i + half, j + half, k + half] >= iso
+        for c in range(8):
+            v = values[b, i + fine * (c & 1), j + fine * ((c >> 1) & 1), k + fine * (c >> 2)]
+            if (v >= iso) != inside:
+                out[q] = True
+                break
+    return out
+
+
+@nb.njit(cache=True)
+def _face_crossed(values, b, i, j, k, axis, side, fine, iso):
+    """Does a lattice edge on a face of the box at local (i, j, k) of block b cross the iso?"""
+    p = np.zeros(3, dtype=np.int64)
+    for u in range(fine + 1):
+        for v in range(fine + 1):
+            p[axis] = side * fine
+            p[(axis + 1) % 3] = u
+            p[(axis + 2) % 3] = v
+            here = values[b, i + p[0], j + p[1], k + p[2]] >= iso
+            for d in (1, 2):
+                a = (axis + d) % 3
+                if p[a] < fine:
+                    p[a] += 1
+                    there = values[b, i + p[0], j + p[1], k + p[2]] >= iso
+                    p[a] -= 1
+                    if there != here:
+                        return True
+    return False
+
+
+@nb.njit(cache=True)
+def spread(
+    values, frontier, active, kept_slot, kept_loc, boxmap, block_of, block_origins, block, fine, iso
+):
+    """Kept boxes not yet active across a crossed face of a frontier box; marks them active."""
+    out = np.empty(frontier.shape[0] * 6, dtype=np.int64)
+    n = 0
+    nbx, nby, nbz = block_of.shape
+    g = np.empty(3, dtype=np.int64)
+    for q in frontier:
+        b = kept_slot[q]
+        i, j, k = kept_loc[q, 0], kept_loc[q, 1], kept_loc[q, 2]
+        for axis in range(3):
+            for side in range(2):
+                if not _face_crossed(values, b, i, j, k, axis, side, fine, iso):
+                    continue
+                g[0] = block_origins[b, 0] + i
+                g[1] = block_origins[b, 1] + j
+                g[2] = block_origins[b, 2] + k
+                g[axis] += fine if side else -fine
+                if g[axis] < 0:
+                    continue
+                bx, by, bz = g[0] // block, g[1] // block, g[2] // block
+                if bx >= nbx or by >= nby or bz >= nbz:
+                    continue
+                nb_slot = block_of[bx, by, bz]
+                if nb_slot < 0:
+                    continue
+                r = boxmap[
+                    nb_slot,
+                    (g[0] - block_origins[nb_slot, 0]) // fine,
+                    (g[1] - block_origins[nb_slot, 1]) // fine,
+                    (g[2] - block_origins[nb_slot, 2]) // fine,
+                ]
+                if r >= 0 and not active[r]:
+                    active[r] = True
+                    out[n] = r
+                    n += 1
+    return out[:n]
+
+
+@nb.njit(cache=True)
+def paint_rest(values, state, active, kept_slot, kept_loc, kept_value, fine):
+    """Give the unsampled points of inactive kept boxes the value at the box centre: their
+    corners and centre lie on one side, and no crossed face leads into them."""
+    for q in range(kept_slot.shape[0]):
+        if active[q]:
+            continue
+        b = kept_slot[q]
+        for i in range(kept_loc[q, 0], kept_loc[q, 0] + fine + 1):
+            for j in range(kept_loc[q, 1], kept_loc[q, 1] + fine + 1):
+                for k in range(kept_loc[q, 2], kept_loc[q, 2] + fine + 1):
+                    if state[b, i, j, k] == UNKNOWN:
+                        values[b, i, j, k] = kept_value[q]
+                        state[b, i, j, k] = PAINTED
