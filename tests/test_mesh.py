@@ -157,6 +157,14 @@ def test_cell_size_form_equals_resolution_form():
     assert np.array_equal(a.faces, b.faces) and np.allclose(a.vertices, b.vertices)
 
 
+def test_empty_solid_gives_an_empty_mesh():
+    far_apart = bt.Point(radius=1.0) & bt.Point(radius=1.0, center=(5, 0, 0))
+    assert len(polygonize(far_apart, resolution=16).faces) == 0
+    touching = bt.Point(radius=1.0) & bt.Point(radius=1.0, center=(1.9, 0, 0))  # f < 0.5
+    m = polygonize(touching, resolution=16)
+    assert len(m.faces) == 0 and len(m.vertices) == 0
+
+
 @settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(trees(max_leaves=5))
 def test_random_trees_mesh_closed(tree):

@@ -169,3 +169,39 @@ def paint_rest(values, state, active, kept_slot, kept_loc, kept_value, fine):
                     if state[b, i, j, k] == UNKNOWN:
                         values[b, i, j, k] = kept_value[q]
                         state[b, i, j, k] = PAINTED
+
+
+@nb.njit(cache=True)
+def box_geometry(origins, size, grid_origin, h, limit):
+    """Corners lo, hi (M, 3), centres (M, 3) and half-diagonals (M,) of cubic boxes of ``size``
+    cells at lattice ``origins``, cut at lattice point ``limit``."""
+    n = origins.shape[0]
+    lo = np.empty((n, 3))
+    hi = np.empty((n, 3))
+    centre = np.empty((n, 3))
+    half = np.empty(n)
+    for q in range(n):
+        d2 = 0.0
+        for a in range(3):
+            lo[q, a] = grid_origin[a] + origins[q, a] * h
+            hi[q, a] = grid_origin[a] + min(origins[q, a] + size, limit[a]) * h
+            centre[q, a] = 0.5 * (lo[q, a] + hi[q, a])
+            d2 += (hi[q, a] - lo[q, a]) ** 2
+        half[q] = 0.5 * np.sqrt(d2)
+    return lo, hi, centre, half
+
+
+@nb.njit(cache=True)
+def split(origins, size, limit):
+    """The eight children of ``size`` cells of each box whose origin lies before ``limit``."""
+    out = np.empty((origins.shape[0] * 8, 3), dtype=np.int64)
+    n = 0
+    for q in range(origins.shape[0]):
+        for c in range(8):
+            i = origins[q, 0] + size * (c & 1)
+            j = origins[q, 1] + size * ((c >> 1) & 1)
+            k = origins[q, 2] + size * (c >> 2)
+            if i < limit[0] and j < limit[1] and k < limit[2]:
+                out[n, 0], out[n, 1], out[n, 2] = i, j, k
+                n += 1
+    return out[:n]

@@ -31,6 +31,12 @@ class Mesh:
     normals: np.ndarray  # (V, 3) float64, unit, outward
     colors: np.ndarray  # (V, 3) float64 in [0, 1]
 
+    @classmethod
+    def empty(cls) -> Mesh:
+        """A mesh with no vertices and no faces."""
+        z = np.zeros((0, 3))
+        return cls(z, np.zeros((0, 3), dtype=np.int32), z, z)
+
     def _edge_codes(self) -> tuple[np.ndarray, np.ndarray]:
         """Codes of the directed edges of all faces and of their reverses."""
         f = self.faces.astype(np.int64)

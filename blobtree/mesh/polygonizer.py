@@ -24,7 +24,16 @@ import os
 import numpy as np
 
 from ._kernels import block_triangles
-from ._lattice import SAMPLED, gather, new_store, paint_rest, seeds, spread
+from ._lattice import (
+    SAMPLED,
+    box_geometry,
+    gather,
+    new_store,
+    paint_rest,
+    seeds,
+    split,
+    spread,
+)
 from .export import Mesh
 
 ISO = 0.5
@@ -61,6 +70,8 @@ def polygonize(
     Features thinner than about two cells may be lost (see docs/meshing.md).
     """
     prog = tree.program() if hasattr(tree, "program") else tree
+    if bounds is None and not np.all(np.asarray(prog.bounds[1]) > np.asarray(prog.bounds[0])):
+        return Mesh.empty()  # the tree's support is empty or flat: no solid
     lo, hi = _check_bounds(prog.bounds if bounds is None else bounds)
     h = _cell_size(lo, hi, resolution, cell_size)
     budget = _available_memory() if max_memory is None else max_memory
@@ -162,14 +173,10 @@ def _cull(prog, grid: _Grid, budget: int):
     top = -(-grid.blocks * BLOCK // size)
     origins = np.stack(np.meshgrid(*(np.arange(n) * size for n in top), indexing="ij"), -1)
     origins = origins.reshape(-1, 3)
-    children = np.stack(np.meshgrid(*([[0, 1]] * 3), indexing="ij"), -1).reshape(-1, 3)
     limit = grid.dims - 1
     empty = ([], [], [])
     while True:
-        lo = grid.origin + origins * grid.h
-        hi = grid.origin + np.minimum(origins + size, limit) * grid.h
-        centre = 0.5 * (lo + hi)
-        half_diag = 0.5 * np.linalg.norm(hi - lo, axis=1)
+        lo, hi, centre, half_diag = box_geometry(origins, size, grid.origin, grid.h, limit)
         lip = prog.lipschitz(lo, hi)
         fc = prog.field(centre) if len(origins) else np.zeros(0)  # unclipped, as L bounds it
         reach = lip * half_diag * (1.0 + 1e-9) + 1e-12
@@ -194,8 +201,7 @@ def _cull(prog, grid: _Grid, budget: int):
             centres = grid.origin + (origins + FINE // 2) * grid.h
             return origins, grid.clip_values(centres, kept_value), *map(np.concatenate, empty)
         size //= 2
-        origins = (origins[:, None, :] + children[None, :, :] * size).reshape(-1, 3)
-        origins = origins[np.all(origins < limit, axis=1)]
+        origins = split(origins, size, limit)
 
 
 def _contour(prog, grid: _Grid, boxes, progress: bool):
@@ -207,7 +213,7 @@ def _contour(prog, grid: _Grid, boxes, progress: bool):
         values, block_origins = _sample(prog, grid, boxes, bar)
         parts = []
         n_keys = n_centres = 0
-        per_batch = max(1, BATCH_POINTS // values[0].size)
+        per_batch = max(1, BATCH_POINTS // (BLOCK + 1) ** 3)
         for start in range(0, len(values), per_batch):
             batch = slice(start, start + per_batch)
             keys, f0, f1, centres, tris = block_triangles(
