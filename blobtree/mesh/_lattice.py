@@ -193,8 +193,10 @@ def box_geometry(origins, size, grid_origin, h, limit):
 
 @nb.njit(cache=True)
 def split(origins, size, limit):
-    """The eight children of ``size`` cells of each box whose origin lies before ``limit``."""
+    """The eight children of ``size`` cells of each box whose origin lies before ``limit``, and
+    the index of each child's parent."""
     out = np.empty((origins.shape[0] * 8, 3), dtype=np.int64)
+    parent = np.empty(origins.shape[0] * 8, dtype=np.int64)
     n = 0
     for q in range(origins.shape[0]):
         for c in range(8):
@@ -203,5 +205,6 @@ def split(origins, size, limit):
             k = origins[q, 2] + size * (c >> 2)
             if i < limit[0] and j < limit[1] and k < limit[2]:
                 out[n, 0], out[n, 1], out[n, 2] = i, j, k
+                parent[n] = q
                 n += 1
-    return out[:n]
+    return out[:n], parent[:n]

@@ -175,9 +175,11 @@ def _cull(prog, grid: _Grid, budget: int):
     origins = origins.reshape(-1, 3)
     limit = grid.dims - 1
     empty = ([], [], [])
+    parent_lip = None
     while True:
         lo, hi, centre, half_diag = box_geometry(origins, size, grid.origin, grid.h, limit)
-        lip = prog.lipschitz(lo, hi)
+        # the smallest boxes reuse their parent's bound: it holds over them too
+        lip = parent_lip if size == FINE else prog.lipschitz(lo, hi)
         fc = prog.field(centre) if len(origins) else np.zeros(0)  # unclipped, as L bounds it
         reach = lip * half_diag * (1.0 + 1e-9) + 1e-12
         keep = (lip > 0) & (np.abs(fc - ISO) <= reach)
@@ -188,7 +190,7 @@ def _cull(prog, grid: _Grid, budget: int):
             empty[0].append(origins[~keep])
             empty[1].append(np.full(np.count_nonzero(~keep), size))
             empty[2].append(fc[~keep])
-        origins, kept_value = origins[keep], fc[keep]
+        origins, kept_value, kept_lip = origins[keep], fc[keep], lip[keep]
         estimate = len(origins) * size * size * TRIANGLES_PER_CELL * BYTES_PER_TRIANGLE
         if estimate > budget:
             raise ValueError(
@@ -201,7 +203,8 @@ def _cull(prog, grid: _Grid, budget: int):
             centres = grid.origin + (origins + FINE // 2) * grid.h
             return origins, grid.clip_values(centres, kept_value), *map(np.concatenate, empty)
         size //= 2
-        origins = split(origins, size, limit)
+        origins, parent = split(origins, size, limit)
+        parent_lip = kept_lip[parent]
 
 
 def _contour(prog, grid: _Grid, boxes, progress: bool):
