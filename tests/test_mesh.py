@@ -72,7 +72,9 @@ def test_kernel_is_watertight_on_noise(seed, quantized):
         idx = [slice(None)] * 4
         idx[axis] = [0, m - 1]
         v[tuple(idx)] = 0.0
+    cells = np.stack(np.meshgrid(*[np.arange(m - 1)] * 3, indexing="ij"), -1).reshape(-1, 3)
     keys, _, _, centres, tris = block_triangles(v, np.zeros((1, 3), np.int64),
+                                                np.array([0, len(cells)]), cells,
                                                 np.array([m, m, m]), 0.5)
     tris = np.where(tris >= 0, tris, len(keys) - 1 - tris)
     z = np.zeros((len(keys) + len(centres), 3))

@@ -159,48 +159,54 @@ def _load_cell(values, blk, i, j, k, iso, v):
     return 0 < n_in < 8
 
 
+@nb.njit(cache=True, inline="always")
+def _edge_slot(e, i, j, k, m):
+    """Index of cell (i, j, k)'s edge ``e`` among the block's lattice edges (point * 3 + axis)."""
+    return (
+        ((i + EDGE_OFFSET[e, 0]) * m + j + EDGE_OFFSET[e, 1]) * m + k + EDGE_OFFSET[e, 2]
+    ) * 3 + (EDGE_AXIS[e])
+
+
 @nb.njit(cache=True, parallel=True)
-def _block_counts(values, iso):
-    """(edge vertices, centre vertices, triangles) produced by each block of ``values``."""
+def _block_counts(values, cell_start, cells, iso):
+    """(edge vertices, centre vertices, triangles) produced by the listed cells of each block."""
     nblk = values.shape[0]
     m = values.shape[1]
     counts = np.zeros((nblk, 3), dtype=np.int64)
     for blk in nb.prange(nblk):
+        seen = np.zeros(m * m * m * 3, dtype=np.bool_)
         nxt = np.empty(12, dtype=np.int64)
         loops = np.empty(12, dtype=np.int64)
         loop_len = np.empty(4, dtype=np.int64)
         v = np.empty(8)
-        for i in range(m):
-            for j in range(m):
-                for k in range(m):
-                    inside = values[blk, i, j, k] >= iso
-                    if i + 1 < m and (values[blk, i + 1, j, k] >= iso) != inside:
+        for c in range(cell_start[blk], cell_start[blk + 1]):
+            i, j, k = cells[c, 0], cells[c, 1], cells[c, 2]
+            if not _load_cell(values, blk, i, j, k, iso, v):
+                continue
+            pos = 0
+            for q in range(_cell_loops(v, iso, nxt, loops, loop_len)):
+                n = loop_len[q]
+                for r in range(n):
+                    slot = _edge_slot(loops[pos + r], i, j, k, m)
+                    if not seen[slot]:
+                        seen[slot] = True
                         counts[blk, 0] += 1
-                    if j + 1 < m and (values[blk, i, j + 1, k] >= iso) != inside:
-                        counts[blk, 0] += 1
-                    if k + 1 < m and (values[blk, i, j, k + 1] >= iso) != inside:
-                        counts[blk, 0] += 1
-                    if i + 1 == m or j + 1 == m or k + 1 == m:
-                        continue
-                    if not _load_cell(values, blk, i, j, k, iso, v):
-                        continue
-                    pos = 0
-                    for q in range(_cell_loops(v, iso, nxt, loops, loop_len)):
-                        n = loop_len[q]
-                        if _fan_apex(loops, pos, n) < 0:
-                            counts[blk, 1] += 1
-                            counts[blk, 2] += n
-                        else:
-                            counts[blk, 2] += n - 2
-                        pos += n
+                if _fan_apex(loops, pos, n) < 0:
+                    counts[blk, 1] += 1
+                    counts[blk, 2] += n
+                else:
+                    counts[blk, 2] += n - 2
+                pos += n
     return counts
 
 
-def block_triangles(values: np.ndarray, origins: np.ndarray, dims: np.ndarray, iso: float):
-    """Contour every cell of a batch of blocks.
+def block_triangles(values, origins, cell_start, cells, dims, iso: float):
+    """Contour the listed cells of a batch of blocks.
 
     ``values`` (K, b+1, b+1, b+1): samples of each block; ``origins`` (K, 3): each block's first
-    lattice point; ``dims`` (3,): lattice points per axis (for the keys).  Returns
+    lattice point; ``cells`` (C, 3): local coordinates of the cells to contour, those of block
+    q at ``cell_start[q]:cell_start[q + 1]``; ``dims`` (3,): lattice points per axis (for the
+    keys).  Returns
 
     * ``keys`` (V,): lattice-edge keys of the edge vertices, ``f0``, ``f1`` (V,) the samples at
       each edge's ends (vertices on block faces appear once per block that uses them);
@@ -209,7 +215,7 @@ def block_triangles(values: np.ndarray, origins: np.ndarray, dims: np.ndarray, i
     * ``tris`` (T, 3): vertex indices, ``i >= 0`` an edge vertex, ``-1 - i`` centre ``i``;
       oriented outward (counter-clockwise seen from the side of lower field).
     """
-    counts = _block_counts(values, iso)
+    counts = _block_counts(values, cell_start, cells, iso)
     off = np.zeros((len(values) + 1, 3), dtype=np.int64)
     np.cumsum(counts, axis=0, out=off[1:])
     keys = np.empty(off[-1, 0], dtype=np.int64)
@@ -217,12 +223,12 @@ def block_triangles(values: np.ndarray, origins: np.ndarray, dims: np.ndarray, i
     f1 = np.empty(off[-1, 0])
     centres = np.empty((off[-1, 1], 3))
     tris = np.empty((off[-1, 2], 3), dtype=np.int64)
-    _block_fill(values, origins, dims, iso, off, keys, f0, f1, centres, tris)
+    _block_fill(values, origins, cell_start, cells, dims, iso, off, keys, f0, f1, centres, tris)
     return keys, f0, f1, centres, tris
 
 
 @nb.njit(cache=True, parallel=True)
-def _block_fill(values, origins, dims, iso, off, keys, f0, f1, centres, tris):
+def _block_fill(values, origins, cell_start, cells, dims, iso, off, keys, f0, f1, centres, tris):
     """The work of :func:`block_triangles`, each block writing from its offsets ``off``."""
     nblk = values.shape[0]
     m = values.shape[1]
@@ -237,51 +243,50 @@ def _block_fill(values, origins, dims, iso, off, keys, f0, f1, centres, tris):
         cell_vid = np.empty(13, dtype=np.int64)
         ov, oc, ot = off[blk, 0], off[blk, 1], off[blk, 2]
         oi, oj, ok = origins[blk, 0], origins[blk, 1], origins[blk, 2]
-        for i in range(m - 1):
-            for j in range(m - 1):
-                for k in range(m - 1):
-                    if not _load_cell(values, blk, i, j, k, iso, v):
-                        continue
-                    pos = 0
-                    for q in range(_cell_loops(v, iso, nxt, loops, loop_len)):
-                        n = loop_len[q]
-                        for r in range(n):
-                            e = loops[pos + r]
-                            a = EDGE_AXIS[e]
-                            li = i + EDGE_OFFSET[e, 0]
-                            lj = j + EDGE_OFFSET[e, 1]
-                            lk = k + EDGE_OFFSET[e, 2]
-                            slot = ((li * m + lj) * m + lk) * 3 + a
-                            if vid[slot] < 0:
-                                vid[slot] = ov
-                                keys[ov] = (((oi + li) * d1 + (oj + lj)) * d2 + (ok + lk)) * 3 + a
-                                f0[ov] = values[blk, li, lj, lk]
-                                f1[ov] = values[blk, li + (a == 0), lj + (a == 1), lk + (a == 2)]
-                                ov += 1
-                            cell_vid[r] = vid[slot]
-                        apex = _fan_apex(loops, pos, n)
-                        if apex < 0:  # a centre vertex, fanned around the whole loop
-                            centres[oc] = 0.0
-                            for r in range(n):
-                                w = cell_vid[r]
-                                x = _edge_point(loops[pos + r], f0[w], f1[w], iso)
-                                centres[oc, 0] += (oi + i + x[0]) / n
-                                centres[oc, 1] += (oj + j + x[1]) / n
-                                centres[oc, 2] += (ok + k + x[2]) / n
-                            cell_vid[n] = cell_vid[0]
-                            for r in range(n):
-                                tris[ot, 0] = -1 - oc
-                                tris[ot, 1] = cell_vid[r + 1]
-                                tris[ot, 2] = cell_vid[r]
-                                ot += 1
-                            oc += 1
-                        else:  # reversed: the loop runs counter-clockwise about the inside
-                            for r in range(1, n - 1):
-                                tris[ot, 0] = cell_vid[apex]
-                                tris[ot, 1] = cell_vid[(apex + r + 1) % n]
-                                tris[ot, 2] = cell_vid[(apex + r) % n]
-                                ot += 1
-                        pos += n
+        for c in range(cell_start[blk], cell_start[blk + 1]):
+            i, j, k = cells[c, 0], cells[c, 1], cells[c, 2]
+            if not _load_cell(values, blk, i, j, k, iso, v):
+                continue
+            pos = 0
+            for q in range(_cell_loops(v, iso, nxt, loops, loop_len)):
+                n = loop_len[q]
+                for r in range(n):
+                    e = loops[pos + r]
+                    a = EDGE_AXIS[e]
+                    li = i + EDGE_OFFSET[e, 0]
+                    lj = j + EDGE_OFFSET[e, 1]
+                    lk = k + EDGE_OFFSET[e, 2]
+                    slot = _edge_slot(e, i, j, k, m)
+                    if vid[slot] < 0:
+                        vid[slot] = ov
+                        keys[ov] = (((oi + li) * d1 + (oj + lj)) * d2 + (ok + lk)) * 3 + a
+                        f0[ov] = values[blk, li, lj, lk]
+                        f1[ov] = values[blk, li + (a == 0), lj + (a == 1), lk + (a == 2)]
+                        ov += 1
+                    cell_vid[r] = vid[slot]
+                apex = _fan_apex(loops, pos, n)
+                if apex < 0:  # a centre vertex, fanned around the whole loop
+                    centres[oc] = 0.0
+                    for r in range(n):
+                        w = cell_vid[r]
+                        x = _edge_point(loops[pos + r], f0[w], f1[w], iso)
+                        centres[oc, 0] += (oi + i + x[0]) / n
+                        centres[oc, 1] += (oj + j + x[1]) / n
+                        centres[oc, 2] += (ok + k + x[2]) / n
+                    cell_vid[n] = cell_vid[0]
+                    for r in range(n):
+                        tris[ot, 0] = -1 - oc
+                        tris[ot, 1] = cell_vid[r + 1]
+                        tris[ot, 2] = cell_vid[r]
+                        ot += 1
+                    oc += 1
+                else:  # reversed: the loop runs counter-clockwise about the inside
+                    for r in range(1, n - 1):
+                        tris[ot, 0] = cell_vid[apex]
+                        tris[ot, 1] = cell_vid[(apex + r + 1) % n]
+                        tris[ot, 2] = cell_vid[(apex + r) % n]
+                        ot += 1
+                pos += n
 
 
 @nb.njit(cache=True, inline="always")

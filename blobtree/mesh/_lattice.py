@@ -52,12 +52,12 @@ def new_store(
 
 
 @nb.njit(cache=True)
-def gather(state, boxes, kept_slot, kept_loc, offsets, block_origins):
+def gather(state, boxes, kept_slot, kept_loc, offsets, block_origins, grid_origin, h):
     """Points of the given kept boxes at ``offsets`` (P, 3) not sampled yet, each once: their
-    flat indices into the store (S,) and lattice coordinates (S, 3).  Marks them queued."""
+    flat indices into the store (S,) and positions (S, 3).  Marks them queued."""
     m = state.shape[1]
     flat = np.empty(boxes.shape[0] * offsets.shape[0], dtype=np.int64)
-    coords = np.empty((flat.shape[0], 3), dtype=np.int64)
+    coords = np.empty((flat.shape[0], 3))
     n = 0
     for q in boxes:
         b = kept_slot[q]
@@ -69,11 +69,37 @@ def gather(state, boxes, kept_slot, kept_loc, offsets, block_origins):
                 continue
             state[b, i, j, k] = QUEUED
             flat[n] = ((b * m + i) * m + j) * m + k
-            coords[n, 0] = block_origins[b, 0] + i
-            coords[n, 1] = block_origins[b, 1] + j
-            coords[n, 2] = block_origins[b, 2] + k
+            coords[n, 0] = grid_origin[0] + (block_origins[b, 0] + i) * h
+            coords[n, 1] = grid_origin[1] + (block_origins[b, 1] + j) * h
+            coords[n, 2] = grid_origin[2] + (block_origins[b, 2] + k) * h
             n += 1
     return flat[:n], coords[:n]
+
+
+@nb.njit(cache=True)
+def store(values, state, flat, f):
+    """Write sampled values ``f`` at the flat indices ``flat`` of the store."""
+    v = values.reshape(-1)
+    st = state.reshape(-1)
+    for q in range(flat.shape[0]):
+        v[flat[q]] = f[q]
+        st[flat[q]] = SAMPLED
+
+
+@nb.njit(cache=True)
+def keep_boxes(lip, fc, half, lo, hi, bounds_lo, bounds_hi, clip, iso):
+    """Boxes the surface may cross: ``|f(centre) - iso| <= L * half-diagonal`` (and L > 0);
+    with ``clip``, also boxes reaching out of the bounds where the field may exceed iso there
+    (the cap of the cut solid)."""
+    keep = np.empty(lip.shape[0], dtype=np.bool_)
+    for q in range(lip.shape[0]):
+        reach = lip[q] * half[q] * (1.0 + 1e-9) + 1e-12
+        keep[q] = lip[q] > 0 and abs(fc[q] - iso) <= reach
+        if clip and not keep[q] and lip[q] > 0 and fc[q] + reach >= iso:
+            for a in range(3):
+                if lo[q, a] < bounds_lo[a] or hi[q, a] > bounds_hi[a]:
+                    keep[q] = True
+    return keep
 
 
 @nb.njit(cache=True)

@@ -25,14 +25,15 @@ import numpy as np
 
 from ._kernels import block_triangles
 from ._lattice import (
-    SAMPLED,
     box_geometry,
     gather,
+    keep_boxes,
     new_store,
     paint_rest,
     seeds,
     split,
     spread,
+    store,
 )
 from .export import Mesh
 
@@ -181,11 +182,7 @@ def _cull(prog, grid: _Grid, budget: int):
         # the smallest boxes reuse their parent's bound: it holds over them too
         lip = parent_lip if size == FINE else prog.lipschitz(lo, hi)
         fc = prog.field(centre) if len(origins) else np.zeros(0)  # unclipped, as L bounds it
-        reach = lip * half_diag * (1.0 + 1e-9) + 1e-12
-        keep = (lip > 0) & (np.abs(fc - ISO) <= reach)
-        if grid.clip:  # boxes on the bounds may hold the cap where the bounds cut the solid
-            on_edge = np.any((lo < grid.lo) | (hi > grid.hi), axis=1)
-            keep |= on_edge & (lip > 0) & (fc + reach >= ISO)
+        keep = keep_boxes(lip, fc, half_diag, lo, hi, grid.lo, grid.hi, grid.clip, ISO)
         if size < BLOCK:
             empty[0].append(origins[~keep])
             empty[1].append(np.full(np.count_nonzero(~keep), size))
@@ -213,14 +210,19 @@ def _contour(prog, grid: _Grid, boxes, progress: bool):
     from tqdm import tqdm
 
     with tqdm(total=3, unit="stage", disable=not progress, leave=False) as bar:
-        values, block_origins = _sample(prog, grid, boxes, bar)
+        values, block_origins, cell_start, cells = _sample(prog, grid, boxes, bar)
         parts = []
         n_keys = n_centres = 0
         per_batch = max(1, BATCH_POINTS // (BLOCK + 1) ** 3)
         for start in range(0, len(values), per_batch):
-            batch = slice(start, start + per_batch)
+            stop = min(start + per_batch, len(values))
             keys, f0, f1, centres, tris = block_triangles(
-                values[batch], block_origins[batch], grid.dims, ISO
+                values[start:stop],
+                block_origins[start:stop],
+                cell_start[start : stop + 1] - cell_start[start],
+                cells[cell_start[start] : cell_start[stop]],
+                grid.dims,
+                ISO,
             )
             tris = np.where(tris >= 0, tris + n_keys, tris - n_centres)
             parts.append((keys, f0, f1, centres, tris))
@@ -238,9 +240,10 @@ def _contour(prog, grid: _Grid, boxes, progress: bool):
     return tuple(np.concatenate(x) for x in zip(*parts, strict=True))
 
 
-def _sample(prog, grid: _Grid, boxes, bar) -> tuple[np.ndarray, np.ndarray]:
-    """Lattice values (B, BLOCK+1, BLOCK+1, BLOCK+1) of the blocks holding kept boxes, and the
-    blocks' origins (B, 3).
+def _sample(prog, grid: _Grid, boxes, bar):
+    """Lattice values (B, BLOCK+1, BLOCK+1, BLOCK+1) of the blocks holding kept boxes, the
+    blocks' origins (B, 3), and the cells to contour: local coordinates (C, 3), those of block
+    q at ``cell_start[q]:cell_start[q + 1]`` (returned as ``values, origins, cell_start, cells``).
 
     1. Points of free boxes take the field at the box centre: the right side of 0.5.
     2. Every kept box is sampled at its corners and centre (a body-centred lattice of spacing
@@ -260,12 +263,13 @@ def _sample(prog, grid: _Grid, boxes, bar) -> tuple[np.ndarray, np.ndarray]:
     block_of.reshape(-1)[codes] = np.arange(len(codes))
     free_slot = block_of.reshape(-1)[_block_code(free, nb)]
     has = free_slot >= 0
+    kept_loc = kept - block_origins[kept_slot]
     values, state, boxmap = new_store(
         len(codes),
         BLOCK,
         FINE,
         kept_slot,
-        kept - block_origins[kept_slot],
+        kept_loc,
         kept_value,
         free_slot[has],
         free[has] - block_origins[free_slot[has]],
@@ -274,13 +278,11 @@ def _sample(prog, grid: _Grid, boxes, bar) -> tuple[np.ndarray, np.ndarray]:
     )
 
     def sample(box_ids, offsets):
-        flat, coords = gather(
-            state, box_ids, kept_slot, kept - block_origins[kept_slot], offsets, block_origins
+        flat, points = gather(
+            state, box_ids, kept_slot, kept_loc, offsets, block_origins, grid.origin, grid.h
         )
-        values.reshape(-1)[flat] = grid.field(prog, grid.origin + coords * grid.h)
-        state.reshape(-1)[flat] = SAMPLED
+        store(values, state, flat, grid.field(prog, points))
 
-    kept_loc = kept - block_origins[kept_slot]
     corners = np.stack(np.meshgrid(*([[0, FINE]] * 3), indexing="ij"), -1).reshape(-1, 3)
     whole = np.stack(np.meshgrid(*([np.arange(FINE + 1)] * 3), indexing="ij"), -1)
     whole = whole.reshape(-1, 3)
@@ -305,7 +307,14 @@ def _sample(prog, grid: _Grid, boxes, bar) -> tuple[np.ndarray, np.ndarray]:
         )
     paint_rest(values, state, active, kept_slot, kept_loc, kept_value, FINE)
     bar.update()
-    return values, block_origins
+    # the cells of the boxes sampled whole, by block: no other cell can cross the surface
+    boxes_by_block = np.flatnonzero(active)
+    boxes_by_block = boxes_by_block[np.argsort(kept_slot[boxes_by_block], kind="stable")]
+    box_start = np.searchsorted(kept_slot[boxes_by_block], np.arange(len(codes) + 1))
+    cells = (
+        kept_loc[boxes_by_block][:, None, :] + whole[None, :, :][:, np.all(whole < FINE, axis=1)]
+    ).reshape(-1, 3)
+    return values, block_origins, box_start * FINE**3, cells
 
 
 def _block_code(origins: np.ndarray, blocks: np.ndarray) -> np.ndarray:
