@@ -1,13 +1,16 @@
 """Benchmark the polygonizer on whorl126 against two peers measured in the same run.
 
-Peers, at the same bounds and cell size:
+Peers, at the same bounds and cell size, all timed best of ``--repeat`` runs (the machine is
+shared):
   (a) numpy: the field on the dense grid, each primitive evaluated only inside its own box,
       then ``skimage.measure.marching_cubes``;
-  (b) fogleman's ``sdf`` (PyPI ``sdf-fork``) meshing the custom function ``0.5 - field`` with our
-      engine's field (its sparse block skip needs a distance bound, so it gets |grad| <= 1 by
-      dividing by the global Lipschitz constant; the surface is the same).
+  (b) fogleman's ``sdf`` (PyPI ``sdf-fork``) meshing the custom function ``0.5 - field``, the
+      field in numpy as in (a) (each primitive only on the points inside its box).  Its sparse
+      block skip assumes a distance bound, so the function is divided by the global Lipschitz
+      constant (same surface).  Its triangle soup is welded before the watertight check.
+Our first call (numba compile or cache load) is reported apart.
 
-Usage: python bench/bench_mesh.py [--resolutions 128 256 512] [--peer-b-max 256]
+Usage: python bench/bench_mesh.py [--resolutions 128 256 512] [--peer-b-max 256] [--repeat 3]
 """
 
 from __future__ import annotations
@@ -52,19 +55,29 @@ def peer_numpy(lo, hi, cell: float):
     return verts + origin, faces
 
 
-def peer_sdf(prog, lo, hi, cell: float):
-    """Peer (b): fogleman's sdf on 0.5 - field (scaled to a distance bound), welded afterwards."""
+def numpy_field(p: np.ndarray) -> np.ndarray:
+    """whorl126's field at points (N, 3) in numpy, each primitive only on points in its box."""
+    centres, radii = whorl_spheres()
+    f = np.zeros(len(p))
+    lo, hi = p.min(axis=0), p.max(axis=0)
+    near = np.all((centres + radii[:, None] >= lo) & (centres - radii[:, None] <= hi), axis=1)
+    for c, rad in zip(centres[near], radii[near], strict=True):
+        inside = np.flatnonzero(np.all(np.abs(p - c) <= rad, axis=1))
+        s = np.sum((p[inside] - c) ** 2, axis=1) / rad**2
+        f[inside] += np.where(s < 1.0, soft_object(s), 0.0)
+    return f
+
+
+def peer_sdf(scale: float, lo, hi, cell: float):
+    """Peer (b): fogleman's sdf on 0.5 - field (scaled to a distance bound); a triangle soup."""
     from sdf import sdf3
     from sdf.mesh import generate
 
-    scale = 1.0 / prog.lipschitz_global
-
     @sdf3
     def shape():
-        return lambda p: (0.5 - prog.field(np.ascontiguousarray(p, dtype=np.float64))) * scale
+        return lambda p: (0.5 - numpy_field(np.asarray(p, dtype=np.float64))) * scale
 
-    points = np.asarray(generate(shape(), step=cell, bounds=(lo - cell, hi + cell), verbose=False))
-    return points
+    return np.asarray(generate(shape(), step=cell, bounds=(lo - cell, hi + cell), verbose=False))
 
 
 def welded(verts: np.ndarray, faces: np.ndarray) -> Mesh:
@@ -74,49 +87,51 @@ def welded(verts: np.ndarray, faces: np.ndarray) -> Mesh:
     return Mesh(uniq, inv.reshape(-1)[faces], z, z)
 
 
-def timed(fn, *args, **kw):
-    t = time.perf_counter()
-    out = fn(*args, **kw)
-    return out, time.perf_counter() - t
+def best(repeat: int, fn, *args, **kw):
+    """(result, best wall time in seconds) over ``repeat`` runs."""
+    times = []
+    for _ in range(repeat):
+        t = time.perf_counter()
+        out = fn(*args, **kw)
+        times.append(time.perf_counter() - t)
+    return out, min(times)
+
+
+def row(n: int, name: str, seconds: float, triangles: int, watertight: bool, ratio: str) -> None:
+    print(
+        f"{n:>5} {name:<10} {seconds:>8.2f} {triangles:>10} "
+        f"{'yes' if watertight else 'NO':>10} {ratio:>7}"
+    )
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--resolutions", type=int, nargs="+", default=[128, 256, 512])
     ap.add_argument("--peer-b-max", type=int, default=256, help="skip peer (b) above this N")
+    ap.add_argument("--repeat", type=int, default=3, help="best of this many runs")
     args = ap.parse_args()
 
     tree = bt.models.whorl126()
     prog = tree.program()
     lo, hi = (np.asarray(b, dtype=np.float64) for b in prog.bounds)
-    _, compile_s = timed(polygonize, tree, resolution=16)  # numba compile / cache load
-    print(f"whorl126, bounds {np.round(lo, 3)} .. {np.round(hi, 3)}")
+    _, compile_s = best(1, polygonize, tree, resolution=16)
+    print(f"whorl126, bounds {np.round(lo, 3)} .. {np.round(hi, 3)}, best of {args.repeat}")
     print(f"first call (numba compile or cache load): {compile_s:.2f} s")
     print(
-        f"{'N':>5} {'method':<10} {'seconds':>8} {'triangles':>10} {'watertight':>10} {'ratio':>7}"
+        f"{'N':>5} {'method':<10} {'seconds':>8} {'triangles':>10} {'watertight':>10} "
+        f"{'ours/it':>7}"
     )
     ours = {}
     for n in args.resolutions:
         cell = float(np.max(hi - lo)) / n
-        mesh, t_ours = timed(polygonize, tree, resolution=n)
-        ours[n] = t_ours
-        print(
-            f"{n:>5} {'blobtree':<10} {t_ours:>8.2f} {len(mesh.faces):>10} "
-            f"{'yes' if mesh.is_watertight else 'NO':>10} {'':>7}"
-        )
-        (v, f), t_a = timed(peer_numpy, lo, hi, cell)
-        print(
-            f"{n:>5} {'numpy+mc':<10} {t_a:>8.2f} {len(f):>10} "
-            f"{'yes' if welded(v, f).is_watertight else 'NO':>10} {t_ours / t_a:>6.2f}x"
-        )
+        mesh, ours[n] = best(args.repeat, polygonize, tree, resolution=n)
+        row(n, "blobtree", ours[n], len(mesh.faces), mesh.is_watertight, "")
+        (v, f), t_a = best(args.repeat, peer_numpy, lo, hi, cell)
+        row(n, "numpy+mc", t_a, len(f), welded(v, f).is_watertight, f"{ours[n] / t_a:.2f}x")
         if n <= args.peer_b_max:
-            pts, t_b = timed(peer_sdf, prog, lo, hi, cell)
+            pts, t_b = best(args.repeat, peer_sdf, 1.0 / prog.lipschitz_global, lo, hi, cell)
             tri = np.arange(len(pts)).reshape(-1, 3)
-            print(
-                f"{n:>5} {'sdf':<10} {t_b:>8.2f} {len(tri):>10} "
-                f"{'yes' if welded(pts, tri).is_watertight else 'NO':>10} "
-                f"{t_ours / t_b:>6.2f}x"
-            )
+            row(n, "sdf", t_b, len(tri), welded(pts, tri).is_watertight, f"{ours[n] / t_b:.2f}x")
     for n in args.resolutions:
         if 2 * n in ours:
             print(f"T({2 * n}) / T({n}) = {ours[2 * n] / ours[n]:.2f}")
