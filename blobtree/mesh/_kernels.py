@@ -60,6 +60,8 @@ def _face_tables() -> tuple[np.ndarray, np.ndarray]:
 
 
 FACE_CORNERS, FACE_EDGES = _face_tables()
+#: parallel work items per kernel call (each reuses its scratch over its blocks)
+CHUNKS = 64
 #: axis and lower-corner lattice offset of each of the 12 cell edges
 EDGE_AXIS = np.array([e // 4 for e in range(12)], dtype=np.int64)
 EDGE_OFFSET = np.zeros((12, 3), dtype=np.int64)
@@ -173,31 +175,48 @@ def _block_counts(values, cell_start, cells, iso):
     nblk = values.shape[0]
     m = values.shape[1]
     counts = np.zeros((nblk, 3), dtype=np.int64)
-    for blk in nb.prange(nblk):
+    nch = min(nblk, CHUNKS)
+    for ch in nb.prange(nch):
         seen = np.zeros(m * m * m * 3, dtype=np.bool_)
+        touched = np.empty(m * m * m * 3, dtype=np.int64)
         nxt = np.empty(12, dtype=np.int64)
         loops = np.empty(12, dtype=np.int64)
         loop_len = np.empty(4, dtype=np.int64)
         v = np.empty(8)
-        for c in range(cell_start[blk], cell_start[blk + 1]):
-            i, j, k = cells[c, 0], cells[c, 1], cells[c, 2]
-            if not _load_cell(values, blk, i, j, k, iso, v):
-                continue
-            pos = 0
-            for q in range(_cell_loops(v, iso, nxt, loops, loop_len)):
-                n = loop_len[q]
-                for r in range(n):
-                    slot = _edge_slot(loops[pos + r], i, j, k, m)
-                    if not seen[slot]:
-                        seen[slot] = True
-                        counts[blk, 0] += 1
-                if _fan_apex(loops, pos, n) < 0:
-                    counts[blk, 1] += 1
-                    counts[blk, 2] += n
-                else:
-                    counts[blk, 2] += n - 2
-                pos += n
+        for blk in range(ch * nblk // nch, (ch + 1) * nblk // nch):
+            _count_block(
+                values, blk, cell_start, cells, iso, seen, touched, nxt, loops, loop_len, v, counts
+            )
     return counts
+
+
+@nb.njit(cache=True)
+def _count_block(
+    values, blk, cell_start, cells, iso, seen, touched, nxt, loops, loop_len, v, counts
+):
+    """Counts of one block for :func:`_block_counts`; leaves ``seen`` all False again."""
+    m = values.shape[1]
+    for c in range(cell_start[blk], cell_start[blk + 1]):
+        i, j, k = cells[c, 0], cells[c, 1], cells[c, 2]
+        if not _load_cell(values, blk, i, j, k, iso, v):
+            continue
+        pos = 0
+        for q in range(_cell_loops(v, iso, nxt, loops, loop_len)):
+            n = loop_len[q]
+            for r in range(n):
+                slot = _edge_slot(loops[pos + r], i, j, k, m)
+                if not seen[slot]:
+                    seen[slot] = True
+                    touched[counts[blk, 0]] = slot
+                    counts[blk, 0] += 1
+            if _fan_apex(loops, pos, n) < 0:
+                counts[blk, 1] += 1
+                counts[blk, 2] += n
+            else:
+                counts[blk, 2] += n - 2
+            pos += n
+    for q in range(counts[blk, 0]):
+        seen[touched[q]] = False
 
 
 def block_triangles(values, origins, cell_start, cells, dims, iso: float):
@@ -232,61 +251,111 @@ def _block_fill(values, origins, cell_start, cells, dims, iso, off, keys, f0, f1
     """The work of :func:`block_triangles`, each block writing from its offsets ``off``."""
     nblk = values.shape[0]
     m = values.shape[1]
+    nch = min(nblk, CHUNKS)
+    for ch in nb.prange(nch):
+        vid = np.full(m * m * m * 3, -1, dtype=np.int64)
+        touched = np.empty(m * m * m * 3, dtype=np.int64)
+        scratch = np.empty(12 + 12 + 4 + 13, dtype=np.int64)
+        v = np.empty(8)
+        for blk in range(ch * nblk // nch, (ch + 1) * nblk // nch):
+            _fill_block(
+                values,
+                blk,
+                origins,
+                cell_start,
+                cells,
+                dims,
+                iso,
+                off,
+                keys,
+                f0,
+                f1,
+                centres,
+                tris,
+                vid,
+                touched,
+                scratch,
+                v,
+            )
+
+
+@nb.njit(cache=True)
+def _fill_block(
+    values,
+    blk,
+    origins,
+    cell_start,
+    cells,
+    dims,
+    iso,
+    off,
+    keys,
+    f0,
+    f1,
+    centres,
+    tris,
+    vid,
+    touched,
+    scratch,
+    v,
+):
+    """One block of :func:`_block_fill`; leaves ``vid`` all -1 again."""
+    m = values.shape[1]
     d1 = dims[1]
     d2 = dims[2]
-    for blk in nb.prange(nblk):
-        vid = np.full(m * m * m * 3, -1, dtype=np.int64)
-        nxt = np.empty(12, dtype=np.int64)
-        loops = np.empty(12, dtype=np.int64)
-        loop_len = np.empty(4, dtype=np.int64)
-        v = np.empty(8)
-        cell_vid = np.empty(13, dtype=np.int64)
-        ov, oc, ot = off[blk, 0], off[blk, 1], off[blk, 2]
-        oi, oj, ok = origins[blk, 0], origins[blk, 1], origins[blk, 2]
-        for c in range(cell_start[blk], cell_start[blk + 1]):
-            i, j, k = cells[c, 0], cells[c, 1], cells[c, 2]
-            if not _load_cell(values, blk, i, j, k, iso, v):
-                continue
-            pos = 0
-            for q in range(_cell_loops(v, iso, nxt, loops, loop_len)):
-                n = loop_len[q]
+    nxt = scratch[:12]
+    loops = scratch[12:24]
+    loop_len = scratch[24:28]
+    cell_vid = scratch[28:]
+    ov, oc, ot = off[blk, 0], off[blk, 1], off[blk, 2]
+    oi, oj, ok = origins[blk, 0], origins[blk, 1], origins[blk, 2]
+    for c in range(cell_start[blk], cell_start[blk + 1]):
+        i, j, k = cells[c, 0], cells[c, 1], cells[c, 2]
+        if not _load_cell(values, blk, i, j, k, iso, v):
+            continue
+        pos = 0
+        for q in range(_cell_loops(v, iso, nxt, loops, loop_len)):
+            n = loop_len[q]
+            for r in range(n):
+                e = loops[pos + r]
+                a = EDGE_AXIS[e]
+                li = i + EDGE_OFFSET[e, 0]
+                lj = j + EDGE_OFFSET[e, 1]
+                lk = k + EDGE_OFFSET[e, 2]
+                slot = _edge_slot(e, i, j, k, m)
+                if vid[slot] < 0:
+                    vid[slot] = ov
+                    touched[ov - off[blk, 0]] = slot
+                    keys[ov] = (((oi + li) * d1 + (oj + lj)) * d2 + (ok + lk)) * 3 + a
+                    f0[ov] = values[blk, li, lj, lk]
+                    f1[ov] = values[blk, li + (a == 0), lj + (a == 1), lk + (a == 2)]
+                    ov += 1
+                cell_vid[r] = vid[slot]
+            apex = _fan_apex(loops, pos, n)
+            if apex < 0:  # a centre vertex, fanned around the whole loop
+                centres[oc] = 0.0
                 for r in range(n):
-                    e = loops[pos + r]
-                    a = EDGE_AXIS[e]
-                    li = i + EDGE_OFFSET[e, 0]
-                    lj = j + EDGE_OFFSET[e, 1]
-                    lk = k + EDGE_OFFSET[e, 2]
-                    slot = _edge_slot(e, i, j, k, m)
-                    if vid[slot] < 0:
-                        vid[slot] = ov
-                        keys[ov] = (((oi + li) * d1 + (oj + lj)) * d2 + (ok + lk)) * 3 + a
-                        f0[ov] = values[blk, li, lj, lk]
-                        f1[ov] = values[blk, li + (a == 0), lj + (a == 1), lk + (a == 2)]
-                        ov += 1
-                    cell_vid[r] = vid[slot]
-                apex = _fan_apex(loops, pos, n)
-                if apex < 0:  # a centre vertex, fanned around the whole loop
-                    centres[oc] = 0.0
-                    for r in range(n):
-                        w = cell_vid[r]
-                        x = _edge_point(loops[pos + r], f0[w], f1[w], iso)
-                        centres[oc, 0] += (oi + i + x[0]) / n
-                        centres[oc, 1] += (oj + j + x[1]) / n
-                        centres[oc, 2] += (ok + k + x[2]) / n
-                    cell_vid[n] = cell_vid[0]
-                    for r in range(n):
-                        tris[ot, 0] = -1 - oc
-                        tris[ot, 1] = cell_vid[r + 1]
-                        tris[ot, 2] = cell_vid[r]
-                        ot += 1
-                    oc += 1
-                else:  # reversed: the loop runs counter-clockwise about the inside
-                    for r in range(1, n - 1):
-                        tris[ot, 0] = cell_vid[apex]
-                        tris[ot, 1] = cell_vid[(apex + r + 1) % n]
-                        tris[ot, 2] = cell_vid[(apex + r) % n]
-                        ot += 1
-                pos += n
+                    w = cell_vid[r]
+                    x = _edge_point(loops[pos + r], f0[w], f1[w], iso)
+                    centres[oc, 0] += (oi + i + x[0]) / n
+                    centres[oc, 1] += (oj + j + x[1]) / n
+                    centres[oc, 2] += (ok + k + x[2]) / n
+                cell_vid[n] = cell_vid[0]
+                for r in range(n):
+                    tris[ot, 0] = -1 - oc
+                    tris[ot, 1] = cell_vid[r + 1]
+                    tris[ot, 2] = cell_vid[r]
+                    ot += 1
+                oc += 1
+            else:  # reversed: the loop runs counter-clockwise about the inside
+                for r in range(1, n - 1):
+                    tris[ot, 0] = cell_vid[apex]
+                    tris[ot, 1] = cell_vid[(apex + r + 1) % n]
+                    tris[ot, 2] = cell_vid[(apex + r) % n]
+                    ot += 1
+            pos += n
+    for q in range(off[blk + 1, 0] - off[blk, 0]):
+        vid[touched[q]] = -1
 
 
 @nb.njit(cache=True, inline="always")
