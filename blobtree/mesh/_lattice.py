@@ -1,8 +1,8 @@
 """The sparse lattice the polygonizer samples: numba kernels over blocks of ``block`` cells.
 
-Each block holds the values of its ``(block + 1)**3`` lattice points and a state per point.
-Blocks are tiled by boxes of ``fine`` cells: boxes the culling kept ("kept") and boxes it proved
-free of the surface ("free", of any size below a block).  See ``polygonizer._sample``.
+Each block holds the values of its ``(block + 1)**3`` lattice points and a state per point;
+only the points of the boxes of ``fine`` cells the culling kept are sampled.  See
+``polygonizer._sample``.
 """
 
 from __future__ import annotations
@@ -10,37 +10,19 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-UNKNOWN, SAMPLED, PAINTED, QUEUED = 0, 1, 2, 3
+UNKNOWN, SAMPLED, QUEUED = 0, 1, 2
 
 
 @nb.njit(cache=True)
-def new_store(
-    nblocks,
-    block,
-    fine,
-    kept_slot,
-    kept_loc,
-    kept_value,
-    free_slot,
-    free_loc,
-    free_size,
-    free_value,
-):
-    """Values, states and the kept-box map ``(B, s, s, s)`` (s = block / fine) of the blocks.
-
-    Free boxes are painted with the field at their centre (the side of the iso-value holds over
-    the whole closed box); the centres of kept boxes, sampled by the culling, are stored.
-    """
+def new_store(nblocks, block, fine, kept_slot, kept_loc, kept_value):
+    """Values, states and the kept-box map ``(B, s, s, s)`` (s = block / fine) of the blocks,
+    with the centres of kept boxes (sampled by the culling) stored.  Only points of kept boxes
+    are ever sampled or read."""
     m = block + 1
     s = block // fine
-    values = np.zeros((nblocks, m, m, m))
+    values = np.empty((nblocks, m, m, m))
     state = np.zeros((nblocks, m, m, m), dtype=np.uint8)
     boxmap = np.full((nblocks, s, s, s), -1, dtype=np.int64)
-    for q in range(free_slot.shape[0]):
-        b, w = free_slot[q], free_size[q]
-        i, j, k = free_loc[q, 0], free_loc[q, 1], free_loc[q, 2]
-        values[b, i : i + w + 1, j : j + w + 1, k : k + w + 1] = free_value[q]
-        state[b, i : i + w + 1, j : j + w + 1, k : k + w + 1] = PAINTED
     half = fine // 2
     for q in range(kept_slot.shape[0]):
         b = kept_slot[q]
@@ -179,22 +161,6 @@ def spread(
                     out[n] = r
                     n += 1
     return out[:n]
-
-
-@nb.njit(cache=True)
-def paint_rest(values, state, active, kept_slot, kept_loc, kept_value, fine):
-    """Give the unsampled points of inactive kept boxes the value at the box centre: their
-    corners and centre lie on one side, and no crossed face leads into them."""
-    for q in range(kept_slot.shape[0]):
-        if active[q]:
-            continue
-        b = kept_slot[q]
-        for i in range(kept_loc[q, 0], kept_loc[q, 0] + fine + 1):
-            for j in range(kept_loc[q, 1], kept_loc[q, 1] + fine + 1):
-                for k in range(kept_loc[q, 2], kept_loc[q, 2] + fine + 1):
-                    if state[b, i, j, k] == UNKNOWN:
-                        values[b, i, j, k] = kept_value[q]
-                        state[b, i, j, k] = PAINTED
 
 
 @nb.njit(cache=True)

@@ -29,7 +29,6 @@ from ._lattice import (
     gather,
     keep_boxes,
     new_store,
-    paint_rest,
     seeds,
     split,
     spread,
@@ -165,9 +164,7 @@ def _cull(prog, grid: _Grid, budget: int):
     """Octree descent from blocks of ``BLOCK << levels`` cells down to ``FINE`` cells.
 
     Returns the lattice origins (K, 3) of the finest boxes the surface may cross and the field
-    at their centres (K,) (lattice points); and the boxes smaller than ``BLOCK`` proved free of
-    it: origins (C, 3), sizes (C,) and the field at their centres (C,), whose side of the
-    iso-value holds over the whole closed box.
+    at their centres (K,) (lattice points).
     """
     levels = max(0, math.ceil(math.log2(max(1, int(grid.blocks.max())) / 4)))
     size = BLOCK << levels  # cells per side of the top-level blocks
@@ -175,7 +172,6 @@ def _cull(prog, grid: _Grid, budget: int):
     origins = np.stack(np.meshgrid(*(np.arange(n) * size for n in top), indexing="ij"), -1)
     origins = origins.reshape(-1, 3)
     limit = grid.dims - 1
-    empty = ([], [], [])
     parent_lip = None
     while True:
         lo, hi, centre, half_diag = box_geometry(origins, size, grid.origin, grid.h, limit)
@@ -183,10 +179,6 @@ def _cull(prog, grid: _Grid, budget: int):
         lip = parent_lip if size == FINE else prog.lipschitz(lo, hi)
         fc = prog.field(centre) if len(origins) else np.zeros(0)  # unclipped, as L bounds it
         keep = keep_boxes(lip, fc, half_diag, lo, hi, grid.lo, grid.hi, grid.clip, ISO)
-        if size < BLOCK:
-            empty[0].append(origins[~keep])
-            empty[1].append(np.full(np.count_nonzero(~keep), size))
-            empty[2].append(fc[~keep])
         origins, kept_value, kept_lip = origins[keep], fc[keep], lip[keep]
         estimate = len(origins) * size * size * TRIANGLES_PER_CELL * BYTES_PER_TRIANGLE
         if estimate > budget:
@@ -198,7 +190,7 @@ def _cull(prog, grid: _Grid, budget: int):
             )
         if size == FINE:
             centres = grid.origin + (origins + FINE // 2) * grid.h
-            return origins, grid.clip_values(centres, kept_value), *map(np.concatenate, empty)
+            return origins, grid.clip_values(centres, kept_value)
         size //= 2
         origins, parent = split(origins, size, limit)
         parent_lip = kept_lip[parent]
@@ -245,37 +237,25 @@ def _sample(prog, grid: _Grid, boxes, bar):
     blocks' origins (B, 3), and the cells to contour: local coordinates (C, 3), those of block
     q at ``cell_start[q]:cell_start[q + 1]`` (returned as ``values, origins, cell_start, cells``).
 
-    1. Points of free boxes take the field at the box centre: the right side of 0.5.
-    2. Every kept box is sampled at its corners and centre (a body-centred lattice of spacing
+    1. Every kept box is sampled at its corners and centre (a body-centred lattice of spacing
        ``FINE``: any part of the solid or of its complement that holds a ball of diameter
        1.12 * FINE cells contains one of these samples).
-    3. Boxes whose nine samples are not all on one side, and then every kept box across a face
+    2. Boxes whose nine samples are not all on one side, and then every kept box across a face
        on which a lattice edge crosses the surface, are sampled whole, until no crossed face
        leads to a box not yet sampled.  Crossings are followed, not searched for.
-    4. The other points of kept boxes take their box's side.
+    3. Only the cells of boxes sampled whole are contoured: every crossed lattice edge lies
+       between such boxes (a crossed face leads to another one; culled boxes hold no surface),
+       so the contour closes.  A piece of surface inside one box that misses all nine samples
+       is lost (see docs/meshing.md).
     """
-    kept, kept_value, free, free_size, free_value = boxes
+    kept, kept_value = boxes
     nb = grid.blocks
-    kept_code = _block_code(kept, nb)
-    codes, kept_slot = np.unique(kept_code, return_inverse=True)
+    codes, kept_slot = np.unique(_block_code(kept, nb), return_inverse=True)
     block_origins = np.stack(np.unravel_index(codes, tuple(nb)), axis=1) * BLOCK
     block_of = np.full(tuple(nb), -1, dtype=np.int64)
     block_of.reshape(-1)[codes] = np.arange(len(codes))
-    free_slot = block_of.reshape(-1)[_block_code(free, nb)]
-    has = free_slot >= 0
     kept_loc = kept - block_origins[kept_slot]
-    values, state, boxmap = new_store(
-        len(codes),
-        BLOCK,
-        FINE,
-        kept_slot,
-        kept_loc,
-        kept_value,
-        free_slot[has],
-        free[has] - block_origins[free_slot[has]],
-        free_size[has],
-        free_value[has],
-    )
+    values, state, boxmap = new_store(len(codes), BLOCK, FINE, kept_slot, kept_loc, kept_value)
 
     def sample(box_ids, offsets):
         flat, points = gather(
@@ -305,7 +285,6 @@ def _sample(prog, grid: _Grid, boxes, bar):
             FINE,
             ISO,
         )
-    paint_rest(values, state, active, kept_slot, kept_loc, kept_value, FINE)
     bar.update()
     # the cells of the boxes sampled whole, by block: no other cell can cross the surface
     boxes_by_block = np.flatnonzero(active)
