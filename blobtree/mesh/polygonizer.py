@@ -43,8 +43,8 @@ BLOCK = 16
 FINE = 2
 #: lattice points sampled per streamed batch of blocks
 BATCH_POINTS = 1 << 21
-#: Illinois steps per vertex
-REFINE_STEPS = 3
+#: regula falsi steps per vertex (a Newton step on the shading evaluation follows)
+REFINE_STEPS = 2
 #: estimated bytes of peak memory per output triangle (mesh plus working arrays)
 BYTES_PER_TRIANGLE = 160
 #: estimated triangles per cell of block face area crossed by the surface
@@ -82,12 +82,24 @@ def polygonize(
     tris = np.where(tris >= 0, inverse[np.maximum(tris, 0)], len(keys) - 1 - tris)
     tris = tris.astype(np.int32 if len(keys) + len(centres) < 2**31 else np.int64)
     p0, axis = grid.edge_points(keys)
-    t = _refine(prog, grid, p0, axis, f0[first], f1[first])
-    p0[np.arange(len(keys)), axis] += t * h
+    rows = np.arange(len(keys))
+    t, t_lo, t_hi = _refine(prog, grid, p0, axis, f0[first], f1[first])
+    verts = p0.copy()
+    verts[rows, axis] += t * h
     if grid.clip:  # the cap lies on the bounds; bracketing converges slowly onto the jump
-        np.clip(p0, lo, hi, out=p0)
-    verts = np.concatenate([p0, _project(prog, grid, grid.origin + centres * h)])
-    normals, colors = _shade(prog, verts, tris)
+        np.clip(verts, lo, hi, out=verts)
+    verts = np.concatenate([verts, _project(prog, grid, grid.origin + centres * h)])
+    f, grad, colors = prog.evaluate(verts)
+    # a last Newton step along each edge from the values just taken, kept inside the bracket
+    # (and off the cap of a cut solid, where the real field is not the one meshed)
+    slope = grad[rows, axis] * h
+    t_new = t - np.divide(f[rows] - ISO, slope, out=np.zeros_like(t), where=slope != 0)
+    ok = (t_new > t_lo) & (t_new < t_hi)
+    if grid.clip:
+        ok &= np.all((p0 >= lo) & (p0 + h <= hi), axis=1)
+    verts[rows[ok], axis[ok]] += (t_new[ok] - t[ok]) * h
+    normals = _normals(grad, verts, tris)
+    colors = np.clip(colors, 0.0, 1.0)
     return Mesh(verts, tris, normals, colors)
 
 
@@ -302,8 +314,9 @@ def _block_code(origins: np.ndarray, blocks: np.ndarray) -> np.ndarray:
 
 
 def _refine(prog, grid: _Grid, p0, axis, f0, f1) -> np.ndarray:
-    """Parameter t in (0, 1) of the iso crossing on each lattice edge: regula falsi with the
-    Anderson-Bjorck weighting (Anderson & Bjorck, BIT 13, 1973), keeping a bracket [a, b]."""
+    """Parameter t in (0, 1) of the iso crossing on each lattice edge, and the final bracket
+    (t_lo, t_hi) (kept 1e-4 from the ends): regula falsi with the Anderson-Bjorck weighting
+    (Anderson & Bjorck, BIT 13, 1973)."""
     rows = np.arange(len(p0))
     ta, tb = np.zeros(len(p0)), np.ones(len(p0))
     ga, gb = f0 - ISO, f1 - ISO
@@ -322,7 +335,8 @@ def _refine(prog, grid: _Grid, p0, axis, f0, f1) -> np.ndarray:
         gb = np.where(new_a, np.where(recent_a, gb * m, gb), g)
         ta, tb = np.where(new_a, t, ta), np.where(new_a, tb, t)
         recent_a, recent_b = new_a, ~new_a
-    return np.clip(_secant(ta, tb, ga, gb), 1e-4, 1.0 - 1e-4)
+    t_lo, t_hi = np.maximum(np.minimum(ta, tb), 1e-4), np.minimum(np.maximum(ta, tb), 1.0 - 1e-4)
+    return np.clip(_secant(ta, tb, ga, gb), t_lo, t_hi), t_lo, t_hi
 
 
 def _project(prog, grid: _Grid, p: np.ndarray) -> np.ndarray:
@@ -345,11 +359,8 @@ def _secant(ta, tb, ga, gb) -> np.ndarray:
     return np.clip(t, np.minimum(ta, tb), np.maximum(ta, tb))
 
 
-def _shade(prog, verts: np.ndarray, tris: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Unit outward normals (-grad f) and albedo at the vertices; face normals where grad is 0."""
-    if len(verts) == 0:
-        return np.zeros((0, 3)), np.zeros((0, 3))
-    _, grad, color = prog.evaluate(verts)
+def _normals(grad: np.ndarray, verts: np.ndarray, tris: np.ndarray) -> np.ndarray:
+    """Unit outward normals -grad f / |grad f|; face normals where the gradient vanishes."""
     normals = -np.asarray(grad, dtype=np.float64)
     length = np.linalg.norm(normals, axis=1)
     flat = length < 1e-12
@@ -361,5 +372,4 @@ def _shade(prog, verts: np.ndarray, tris: np.ndarray) -> tuple[np.ndarray, np.nd
             np.add.at(acc, tris[:, c], fn)
         normals[flat] = acc[flat]
         length = np.linalg.norm(normals, axis=1)
-    normals /= np.where(length > 0, length, 1.0)[:, None]
-    return normals, np.clip(np.asarray(color, dtype=np.float64), 0.0, 1.0)
+    return normals / np.where(length > 0, length, 1.0)[:, None]
