@@ -143,6 +143,16 @@ def test_warped_primitives():
     assert_spheres(polygonize(tree, resolution=48), 1)
 
 
+@settings(max_examples=10, deadline=None)
+@given(st.tuples(*[st.floats(0.0, 1.0)] * 3))
+def test_thin_spine_two_cells_wide_stays_one_piece(offset):
+    """A skewed segment whose visible diameter is 2.2 cells, at any offset to the lattice."""
+    h = 0.05
+    a = np.array((-1.0, -0.8, -0.6)) + np.array(offset) * h
+    spine = bt.Segment(a, a + (2.0, 1.7, 1.3), radius=2.0 * 1.1 * h)  # visible radius R / 2
+    assert_spheres(polygonize(spine, cell_size=h), 1)
+
+
 def test_bounds_cut_the_solid_and_cap_it():
     lo, hi = np.array([-1.2, -1.2, -1.2]), np.array([1.2, 1.2, 0.0])
     m = polygonize(bt.Point(radius=2.0), resolution=48, bounds=(lo, hi))
