@@ -1,6 +1,6 @@
 """The sparse lattice the polygonizer samples: numba kernels over blocks of ``block`` cells.
 
-Each block holds the values of its ``(block + 1)**3`` lattice points and a state per point;
+Each block holds the values of its ``(block + 1)**3`` lattice points and which are sampled;
 only the points of the boxes of ``fine`` cells the culling kept are sampled.  See
 ``polygonizer._sample``.
 """
@@ -10,18 +10,16 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-UNKNOWN, SAMPLED, QUEUED = 0, 1, 2
-
 
 @nb.njit(cache=True)
 def new_store(nblocks, block, fine, kept_slot, kept_loc, kept_value):
-    """Values, states and the kept-box map ``(B, s, s, s)`` (s = block / fine) of the blocks,
-    with the centres of kept boxes (sampled by the culling) stored.  Only points of kept boxes
-    are ever sampled or read."""
+    """Values, which points are sampled, and the kept-box map ``(B, s, s, s)`` (s = block /
+    fine) of the blocks, with the centres of kept boxes (sampled by the culling) stored.  Only
+    points of kept boxes are ever sampled or read."""
     m = block + 1
     s = block // fine
     values = np.empty((nblocks, m, m, m))
-    state = np.zeros((nblocks, m, m, m), dtype=np.uint8)
+    sampled = np.zeros((nblocks, m, m, m), dtype=np.bool_)
     boxmap = np.full((nblocks, s, s, s), -1, dtype=np.int64)
     half = fine // 2
     for q in range(kept_slot.shape[0]):
@@ -29,15 +27,16 @@ def new_store(nblocks, block, fine, kept_slot, kept_loc, kept_value):
         i, j, k = kept_loc[q, 0], kept_loc[q, 1], kept_loc[q, 2]
         boxmap[b, i // fine, j // fine, k // fine] = q
         values[b, i + half, j + half, k + half] = kept_value[q]
-        state[b, i + half, j + half, k + half] = SAMPLED
-    return values, state, boxmap
+        sampled[b, i + half, j + half, k + half] = True
+    return values, sampled, boxmap
 
 
 @nb.njit(cache=True)
-def gather(state, boxes, kept_slot, kept_loc, offsets, block_origins, grid_origin, h):
+def gather(sampled, boxes, kept_slot, kept_loc, offsets, block_origins, grid_origin, h):
     """Points of the given kept boxes at ``offsets`` (P, 3) not sampled yet, each once: their
-    flat indices into the store (S,) and positions (S, 3).  Marks them queued."""
-    m = state.shape[1]
+    flat indices into the store (S,) and positions (S, 3).  Marks them sampled (the caller
+    stores their values)."""
+    m = sampled.shape[1]
     flat = np.empty(boxes.shape[0] * offsets.shape[0], dtype=np.int64)
     coords = np.empty((flat.shape[0], 3))
     n = 0
@@ -47,25 +46,15 @@ def gather(state, boxes, kept_slot, kept_loc, offsets, block_origins, grid_origi
             i = kept_loc[q, 0] + offsets[p, 0]
             j = kept_loc[q, 1] + offsets[p, 1]
             k = kept_loc[q, 2] + offsets[p, 2]
-            if state[b, i, j, k] == SAMPLED or state[b, i, j, k] == QUEUED:
+            if sampled[b, i, j, k]:
                 continue
-            state[b, i, j, k] = QUEUED
+            sampled[b, i, j, k] = True
             flat[n] = ((b * m + i) * m + j) * m + k
             coords[n, 0] = grid_origin[0] + (block_origins[b, 0] + i) * h
             coords[n, 1] = grid_origin[1] + (block_origins[b, 1] + j) * h
             coords[n, 2] = grid_origin[2] + (block_origins[b, 2] + k) * h
             n += 1
     return flat[:n], coords[:n]
-
-
-@nb.njit(cache=True)
-def store(values, state, flat, f):
-    """Write sampled values ``f`` at the flat indices ``flat`` of the store."""
-    v = values.reshape(-1)
-    st = state.reshape(-1)
-    for q in range(flat.shape[0]):
-        v[flat[q]] = f[q]
-        st[flat[q]] = SAMPLED
 
 
 @nb.njit(cache=True)

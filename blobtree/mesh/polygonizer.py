@@ -32,7 +32,6 @@ from ._lattice import (
     seeds,
     split,
     spread,
-    store,
 )
 from .export import Mesh
 
@@ -41,8 +40,6 @@ ISO = 0.5
 BLOCK = 16
 #: cells per side of the smallest boxes culled
 FINE = 2
-#: lattice points sampled per streamed batch of blocks
-BATCH_POINTS = 1 << 21
 #: regula falsi steps per vertex (a Newton step on the shading evaluation follows)
 REFINE_STEPS = 2
 #: bytes of peak memory per output triangle, mesh and working arrays (234 measured at N=1024)
@@ -70,6 +67,8 @@ def polygonize(
     budget: a job whose estimated output exceeds it is refused with ValueError before sampling.
     Features thinner than about two cells may be lost (see docs/meshing.md).
     """
+    from tqdm import tqdm
+
     prog = tree.program() if hasattr(tree, "program") else tree
     if bounds is None and not np.all(np.asarray(prog.bounds[1]) > np.asarray(prog.bounds[0])):
         return Mesh.empty()  # the tree's support is empty or flat: no solid
@@ -77,31 +76,46 @@ def polygonize(
     h = _cell_size(lo, hi, resolution, cell_size)
     budget = _available_memory() if max_memory is None else max_memory
     grid = _Grid(lo, hi, h, clip=bounds is not None)
-    keys, f0, f1, centres, tris = _contour(prog, grid, _cull(prog, grid, budget), progress)
-    keys, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
-    inverse = inverse.reshape(-1)
-    tris = np.where(tris >= 0, inverse[np.maximum(tris, 0)], len(keys) - 1 - tris)
-    tris = tris.astype(np.int32 if len(keys) + len(centres) < 2**31 else np.int64)
+    with tqdm(total=4, desc="mesh", unit="step", disable=not progress, leave=False) as bar:
+        boxes = _cull(prog, grid, budget)
+        bar.update()
+        values, block_origins, cell_start, cells = _sample(prog, grid, boxes)
+        bar.update()
+        keys, f0, f1, centres, tris = block_triangles(
+            values, block_origins, cell_start, cells, grid.dims, ISO
+        )
+        del values
+        keys, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
+        inverse = inverse.reshape(-1)
+        tris = np.where(tris >= 0, inverse[np.maximum(tris, 0)], len(keys) - 1 - tris)
+        tris = tris.astype(np.int32 if len(keys) + len(centres) < 2**31 else np.int64)
+        bar.update()
+        verts, grad, colors = _place(prog, grid, keys, f0[first], f1[first], centres)
+        bar.update()
+    return Mesh(verts, tris, _normals(grad, verts, tris), np.clip(colors, 0.0, 1.0))
+
+
+def _place(prog, grid: _Grid, keys, f0, f1, centres):
+    """Vertices on the surface (edge vertices, then loop-centre vertices), with the field's
+    gradient and colour there."""
     p0, axis = grid.edge_points(keys)
     rows = np.arange(len(keys))
-    t, t_lo, t_hi = _refine(prog, grid, p0, axis, f0[first], f1[first])
+    t, t_lo, t_hi = _refine(prog, grid, p0, axis, f0, f1)
     verts = p0.copy()
-    verts[rows, axis] += t * h
+    verts[rows, axis] += t * grid.h
     if grid.clip:  # the cap lies on the bounds; bracketing converges slowly onto the jump
-        np.clip(verts, lo, hi, out=verts)
-    verts = np.concatenate([verts, _project(prog, grid, grid.origin + centres * h)])
+        np.clip(verts, grid.lo, grid.hi, out=verts)
+    verts = np.concatenate([verts, _project(prog, grid, grid.origin + centres * grid.h)])
     f, grad, colors = prog.evaluate(verts)
     # a last Newton step along each edge from the values just taken, kept inside the bracket
     # (and off the cap of a cut solid, where the real field is not the one meshed)
-    slope = grad[rows, axis] * h
+    slope = grad[rows, axis] * grid.h
     t_new = t - np.divide(f[rows] - ISO, slope, out=np.zeros_like(t), where=slope != 0)
     ok = (t_new > t_lo) & (t_new < t_hi)
     if grid.clip:
-        ok &= np.all((p0 >= lo) & (p0 + h <= hi), axis=1)
-    verts[rows[ok], axis[ok]] += (t_new[ok] - t[ok]) * h
-    normals = _normals(grad, verts, tris)
-    colors = np.clip(colors, 0.0, 1.0)
-    return Mesh(verts, tris, normals, colors)
+        ok &= np.all((p0 >= grid.lo) & (p0 + grid.h <= grid.hi), axis=1)
+    verts[rows[ok], axis[ok]] += (t_new[ok] - t[ok]) * grid.h
+    return verts, grad, colors
 
 
 def _check_bounds(bounds) -> tuple[np.ndarray, np.ndarray]:
@@ -209,43 +223,7 @@ def _cull(prog, grid: _Grid, budget: int):
         parent_lip = kept_lip[parent]
 
 
-def _contour(prog, grid: _Grid, boxes, progress: bool):
-    """Sample the lattice near the surface and contour it (see :func:`block_triangles`): edge
-    vertex records, centre vertices and triangles, concatenated over batches of blocks."""
-    from tqdm import tqdm
-
-    with tqdm(total=3, unit="stage", disable=not progress, leave=False) as bar:
-        values, block_origins, cell_start, cells = _sample(prog, grid, boxes, bar)
-        parts = []
-        n_keys = n_centres = 0
-        per_batch = max(1, BATCH_POINTS // (BLOCK + 1) ** 3)
-        for start in range(0, len(values), per_batch):
-            stop = min(start + per_batch, len(values))
-            keys, f0, f1, centres, tris = block_triangles(
-                values[start:stop],
-                block_origins[start:stop],
-                cell_start[start : stop + 1] - cell_start[start],
-                cells[cell_start[start] : cell_start[stop]],
-                grid.dims,
-                ISO,
-            )
-            tris = np.where(tris >= 0, tris + n_keys, tris - n_centres)
-            parts.append((keys, f0, f1, centres, tris))
-            n_keys += len(keys)
-            n_centres += len(centres)
-        bar.update()
-    if not parts:
-        return (
-            np.zeros(0, np.int64),
-            np.zeros(0),
-            np.zeros(0),
-            np.zeros((0, 3)),
-            np.zeros((0, 3), np.int64),
-        )
-    return tuple(np.concatenate(x) for x in zip(*parts, strict=True))
-
-
-def _sample(prog, grid: _Grid, boxes, bar):
+def _sample(prog, grid: _Grid, boxes):
     """Lattice values (B, BLOCK+1, BLOCK+1, BLOCK+1) of the blocks holding kept boxes, the
     blocks' origins (B, 3), and the cells to contour: local coordinates (C, 3), those of block
     q at ``cell_start[q]:cell_start[q + 1]`` (returned as ``values, origins, cell_start, cells``).
@@ -268,19 +246,18 @@ def _sample(prog, grid: _Grid, boxes, bar):
     block_of = np.full(tuple(nb), -1, dtype=np.int64)
     block_of.reshape(-1)[codes] = np.arange(len(codes))
     kept_loc = kept - block_origins[kept_slot]
-    values, state, boxmap = new_store(len(codes), BLOCK, FINE, kept_slot, kept_loc, kept_value)
+    values, sampled, boxmap = new_store(len(codes), BLOCK, FINE, kept_slot, kept_loc, kept_value)
 
     def sample(box_ids, offsets):
         flat, points = gather(
-            state, box_ids, kept_slot, kept_loc, offsets, block_origins, grid.origin, grid.h
+            sampled, box_ids, kept_slot, kept_loc, offsets, block_origins, grid.origin, grid.h
         )
-        store(values, state, flat, grid.field(prog, points))
+        values.reshape(-1)[flat] = grid.field(prog, points)
 
     corners = np.stack(np.meshgrid(*([[0, FINE]] * 3), indexing="ij"), -1).reshape(-1, 3)
     whole = np.stack(np.meshgrid(*([np.arange(FINE + 1)] * 3), indexing="ij"), -1)
     whole = whole.reshape(-1, 3)
     sample(np.arange(len(kept)), corners)
-    bar.update()
     active = seeds(values, kept_slot, kept_loc, FINE, ISO)
     frontier = np.flatnonzero(active)
     while len(frontier):
@@ -298,7 +275,6 @@ def _sample(prog, grid: _Grid, boxes, bar):
             FINE,
             ISO,
         )
-    bar.update()
     # the cells of the boxes sampled whole, by block: no other cell can cross the surface
     boxes_by_block = np.flatnonzero(active)
     boxes_by_block = boxes_by_block[np.argsort(kept_slot[boxes_by_block], kind="stable")]
