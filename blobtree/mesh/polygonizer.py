@@ -1,16 +1,16 @@
-"""Polygonize a BlobTree: sparse marching cubes on the blocks the surface can cross.
+"""Polygonize a BlobTree: marching cubes on the part of the lattice the surface can cross.
 
-1. **Cull.** The grid is covered by an octree of blocks.  A block is dropped when the engine's
-   Lipschitz bound L over it proves the 0.5 iso-surface cannot cross it,
-   ``|f(centre) - 0.5| > L * half_diagonal`` (L is 0 where the block misses every node box).
-   Survivors are split in eight down to blocks of ``BLOCK`` cells.  Work therefore grows with
-   the surface (about 4x per doubling of the resolution), not with the volume.
-2. **Sample and contour**, streaming a few hundred blocks at a time: the field on each block's
-   lattice, then the face-consistent marching cubes of :mod:`blobtree.mesh._kernels`.  Vertices
-   are keyed on lattice edges and welded across blocks.
-3. **Refine** every vertex onto the iso-surface with a few Illinois (modified regula falsi)
-   steps on the real field along its lattice edge, batched over all vertices; then normals
-   (from the field gradient) and colours (from the albedo) at the final positions.
+1. **Cull** (:func:`_cull`).  An octree of boxes down to ``FINE`` cells; a box is dropped when
+   the engine's Lipschitz bound L over it proves the 0.5 iso-surface cannot cross it,
+   ``|f(centre) - 0.5| > L * half_diagonal`` (L is 0 where the box misses every node box).
+2. **Sample** (:func:`_sample`).  The kept boxes at their corners and centres, then whole boxes
+   from those showing both sides of 0.5 outwards across crossed faces.  Work therefore grows
+   with the surface (about 4x per doubling of the resolution), not with the volume.
+3. **Contour** the wholly sampled boxes with the face-consistent marching cubes of
+   :mod:`blobtree.mesh._kernels`; vertices are keyed on lattice edges and welded.
+4. **Place** every vertex on the iso-surface: regula falsi steps on the real field along its
+   lattice edge, batched over all vertices, then a Newton step from the one evaluation that
+   also gives the normals (from the gradient) and colours (from the albedo).
 
 Limits: a feature thinner than about two cells (a spine tip, a thin bridge between blobs) can
 fall between samples and be lost or broken into islands; see docs/meshing.md.
@@ -36,7 +36,7 @@ from ._lattice import (
 from .export import Mesh
 
 ISO = 0.5
-#: cells per side of the blocks sampled and contoured together
+#: cells per side of the blocks of lattice storage
 BLOCK = 16
 #: cells per side of the smallest boxes culled
 FINE = 2
