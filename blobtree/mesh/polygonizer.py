@@ -23,6 +23,7 @@ import os
 
 import numpy as np
 
+from ..nodes import ISO
 from ._kernels import block_triangles
 from ._lattice import (
     box_geometry,
@@ -35,7 +36,6 @@ from ._lattice import (
 )
 from .export import Mesh
 
-ISO = 0.5
 #: cells per side of the blocks of lattice storage
 BLOCK = 16
 #: cells per side of the smallest boxes culled
