@@ -93,22 +93,30 @@ def seeds(values, kept_slot, kept_loc, fine, iso):
 @nb.njit(cache=True)
 def _face_crossed(values, b, i, j, k, axis, side, fine, iso):
     """Does a lattice edge on a face of the box at local (i, j, k) of block b cross the iso?"""
-    p = np.zeros(3, dtype=np.int64)
     for u in range(fine + 1):
         for v in range(fine + 1):
-            p[axis] = side * fine
-            p[(axis + 1) % 3] = u
-            p[(axis + 2) % 3] = v
-            here = values[b, i + p[0], j + p[1], k + p[2]] >= iso
-            for d in (1, 2):
-                a = (axis + d) % 3
-                if p[a] < fine:
-                    p[a] += 1
-                    there = values[b, i + p[0], j + p[1], k + p[2]] >= iso
-                    p[a] -= 1
-                    if there != here:
-                        return True
+            here = _face_value(values, b, i, j, k, axis, side * fine, u, v) >= iso
+            if (
+                u < fine
+                and (_face_value(values, b, i, j, k, axis, side * fine, u + 1, v) >= iso) != here
+            ):
+                return True
+            if (
+                v < fine
+                and (_face_value(values, b, i, j, k, axis, side * fine, u, v + 1) >= iso) != here
+            ):
+                return True
     return False
+
+
+@nb.njit(cache=True, inline="always")
+def _face_value(values, b, i, j, k, axis, w, u, v):
+    """Value at offset w along ``axis`` and (u, v) along the next two axes (cyclically)."""
+    if axis == 0:
+        return values[b, i + w, j + u, k + v]
+    if axis == 1:
+        return values[b, i + v, j + w, k + u]
+    return values[b, i + u, j + v, k + w]
 
 
 @nb.njit(cache=True)
