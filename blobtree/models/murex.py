@@ -32,6 +32,7 @@ from ..nodes import (
     union,
 )
 from .helico import MUREX_SPIRAL, place
+from .whorl import THETA_S
 
 # ---------------------------------------------------------------------------------------------
 # The paper's data
@@ -64,7 +65,7 @@ WHORLS = 7  #: Section 3: seven whorls ...
 WHORL_DEG = 348.0  #: ... of 348 deg each (estimated from Figure 13),
 SECTION_DEG = 116.0  #: three sections between successive varices,
 INSTANCES_PER_SECTION = 6  #: six instances of the generating surface per section,
-THETA_S = SECTION_DEG / INSTANCES_PER_SECTION  #: theta_s = 116/6 deg (Eq. 9),
+# theta_s = 116/6 deg (Eq. 9) is THETA_S, shared with the whorl126 yardstick.
 SECTIONS = 3 * WHORLS  #: 21 sections (Eq. 10),
 INSTANCES = SECTIONS * INSTANCES_PER_SECTION  #: 126 instances, 0..125.
 VARICES = SECTIONS  #: one varix at the end of every section.
