@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 import blobtree as bt
-from blobtree.nodes import Bend
 from blobtree.models import murex as M
 from blobtree.models.helico import helico_spiral
+from blobtree.nodes import Bend
 
 ISO = 0.5
 

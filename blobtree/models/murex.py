@@ -184,7 +184,8 @@ def to_shell_frame(node: Node) -> Node:
 
 
 def about_axis(node: Node, degrees: float) -> Node:
-    """Rotate a local part about the shell axis (x = AXIS_X): P(about_axis(B, a), t) ~ P(B, t + a)."""
+    """Rotate a local part about the shell axis (x = AXIS_X): P(about_axis(B, a), t) is
+    P(B, t + a) up to the growth of the spiral over a."""
     return node.translate(-AXIS_X, 0.0, 0.0).rotate("y", degrees).translate(AXIS_X, 0.0, 0.0)
 
 
@@ -518,9 +519,10 @@ def murex(seed: int = 0, inside: bool = True, **choices: float) -> Node:
     ``seed`` drives the bump sizes and canal spine bends; ``inside=False`` stops at Eq. 14 (no
     inside wall, Figure 11 left); keyword arguments override fields of :class:`Choices`.
     """
-    unknown = sorted(set(choices) - set(Choices.__dataclass_fields__))
+    allowed = sorted(Choices.__dataclass_fields__)
+    unknown = sorted(set(choices) - set(allowed))
     if unknown:
-        raise ValueError(f"unknown choice(s) {unknown}; allowed: {sorted(Choices.__dataclass_fields__)}")
+        raise ValueError(f"unknown choice(s) {unknown}; allowed: {allowed}")
     c = replace(DEFAULT, **choices)
     carved = difference(shell(seed, c), opening(c).color(COLOURS["inside"]))
     if not inside:
