@@ -123,7 +123,7 @@ class Choices:
     #: The two concentric tori of a varix: (major radius, field radius) each.
     tori: tuple[tuple[float, float], ...] = ((0.95, 0.35), (1.2, 0.25))
     #: s: the default size of a bump (field radius of its point before the zeta scale).
-    bump_size: float = 0.5
+    bump_size: float = 0.35
     #: Distance from the centre of the generating surface to a bump's centre.
     bump_offset: float = 0.95
     #: Length and field radii (base, tip) of an axial canal spine of relative size 1.
