@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+import importlib
+
 import numpy as np
 import pytest
 
 import blobtree as bt
 from blobtree.models import figures as F
-from blobtree.models import murex as M
+
+# the module, not the murex() function a package export may shadow it with
+M = importlib.import_module("blobtree.models.murex")
 
 
 def count(node: bt.Node, kind: type) -> int:

@@ -2,16 +2,18 @@
 
 from __future__ import annotations
 
+import importlib
 import math
 
 import numpy as np
 import pytest
 
 import blobtree as bt
-from blobtree.models import murex as M
 from blobtree.models.helico import helico_spiral
 from blobtree.nodes import Bend
 
+# the module, not the murex() function a package export may shadow it with
+M = importlib.import_module("blobtree.models.murex")
 ISO = 0.5
 
 

@@ -10,7 +10,23 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..nodes import Node, Point, blend, controlled_blend, super_blend, union
-from . import murex as M
+from .murex import (
+    BUMP_BLEND_N,
+    CANAL_SECTIONS,
+    DEFAULT,
+    body_whorl,
+    bumps,
+    canal_spines,
+    generating_surface,
+    inside_generating_surface,
+    inside_whorl,
+    instance_angle,
+    murex,
+    opening,
+    sections,
+    varix,
+    whorl,
+)
 
 #: Shell figures are seen with the apex up (the shell grows toward +y, see murex.py) ...
 SHELL_UP = (0.0, -1.0, 0.0)
@@ -41,7 +57,7 @@ def _row(nodes: Sequence[Node], view: Sequence[float], up: Sequence[float],
 
 def _outward_view(instance: int) -> tuple[float, float, float]:
     """Looking at the outside of the whorl at this instance, toward the shell axis."""
-    t = math.radians(M.instance_angle(instance))
+    t = math.radians(instance_angle(instance))
     return (-math.cos(t), 0.0, math.sin(t))
 
 
@@ -59,17 +75,17 @@ def figure_3(n_values: Sequence[float] = tuple(range(1, 11))) -> Node:
     return _row(pairs, LOCAL_VIEW, (0, 1, 0), gap=0.3)
 
 
-def figure_4(radii: Sequence[float] = (1.0, 1.4, M.DEFAULT.point_radius)) -> Node:
+def figure_4(radii: Sequence[float] = (1.0, 1.4, DEFAULT.point_radius)) -> Node:
     """Figure 4: the six points of a section on the helico-spiral (Eq. 9), their field radius
     growing from left to right until they form part of a whorl."""
-    return _row([M.whorl(120, 125, Point(radius=r)) for r in radii], (0.0, 1.0, 0.0),
+    return _row([whorl(120, 125, Point(radius=r)) for r in radii], (0.0, 1.0, 0.0),
                 (0.0, 0.0, -1.0))
 
 
 def figure_5() -> Node:
     """Figure 5: the 21 sections of a point whorl, all blended (left) and with the controlled
     blending of Eq. 10 (right)."""
-    secs = M.sections(canal_sections=0)
+    secs = sections(canal_sections=0)
     pairs = [(j, j + 1) for j in range(len(secs) - 1)]
     return _row([blend(*secs), controlled_blend(secs, pairs=pairs)], APERTURE_VIEW, SHELL_UP)
 
@@ -77,7 +93,7 @@ def figure_5() -> Node:
 def figure_6() -> Node:
     """Figure 6: the generating surface with its canal cone (left, enlarged) and the whorl it
     defines (right, canal in the last 1 1/3 whorls)."""
-    return _row([M.generating_surface(canal=True).scale(0.5), M.body_whorl()], LOCAL_VIEW,
+    return _row([generating_surface(canal=True).scale(0.5), body_whorl()], LOCAL_VIEW,
                 SHELL_UP)
 
 
@@ -85,10 +101,10 @@ def figure_7(whorl_index: int = 7) -> Node:
     """Figure 7: the four stages of a varix (Eq. 12): bent cones; plus the two tori; shorter
     spines with thicker tops; all spines scaled by delta_max across the varix."""
     stages = [
-        M.varix(whorl_index, tori=False, thick_tops=False, widen=False),
-        M.varix(whorl_index, tori=True, thick_tops=False, widen=False),
-        M.varix(whorl_index, tori=True, thick_tops=True, widen=False),
-        M.varix(whorl_index),
+        varix(whorl_index, tori=False, thick_tops=False, widen=False),
+        varix(whorl_index, tori=True, thick_tops=False, widen=False),
+        varix(whorl_index, tori=True, thick_tops=True, widen=False),
+        varix(whorl_index),
     ]
     rows = [_row(stages[i:i + 2], LOCAL_VIEW, SHELL_UP) for i in (0, 2)]
     return _row(rows, LOCAL_VIEW, SHELL_UP, column=True)
@@ -98,17 +114,17 @@ def figure_8(seed: int = 0) -> Node:
     """Figure 8: two whorl sections with five sets of bumps: equal bumps blended by + (left),
     randomly scaled bumps joined by the super-elliptic blend n = 400 (right)."""
     k = BUMP_INTERVAL
-    secs = M.sections(canal_sections=0)[k:k + 2]
+    secs = sections(canal_sections=0)[k:k + 2]
     base = controlled_blend(secs, pairs=[(0, 1)])
-    plain = blend(base, *M.bumps(None, intervals=[k]))
-    rough = super_blend(base, *M.bumps(seed, intervals=[k]), n=M.BUMP_BLEND_N)
+    plain = blend(base, *bumps(None, intervals=[k]))
+    rough = super_blend(base, *bumps(seed, intervals=[k]), n=BUMP_BLEND_N)
     return _row([plain, rough], _outward_view(6 * k + 2), SHELL_UP)
 
 
 def _canal_part(seed: int | None) -> Node:
-    canal = M.sections()[-M.CANAL_SECTIONS:]
+    canal = sections()[-CANAL_SECTIONS:]
     pairs = [(j, j + 1) for j in range(len(canal) - 1)]
-    return blend(controlled_blend(canal, pairs=pairs), *M.canal_spines(seed))
+    return blend(controlled_blend(canal, pairs=pairs), *canal_spines(seed))
 
 
 def figure_9(seed: int = 0) -> Node:
@@ -120,19 +136,19 @@ def figure_9(seed: int = 0) -> Node:
 def figure_10() -> Node:
     """Figure 10: the inside generating surface (left, enlarged), the inside whorl (centre) and
     the opening cut from the shell, B_inside - B_w 94..108 (right, Eq. 14)."""
-    return _row([M.inside_generating_surface().scale(0.5), M.inside_whorl(), M.opening()],
+    return _row([inside_generating_surface().scale(0.5), inside_whorl(), opening()],
                 APERTURE_VIEW, SHELL_UP)
 
 
 def figure_11(seed: int = 0) -> Node:
     """Figure 11: the opening carved by Eq. 14 (left) and after adding the inside wall, Eq. 15
     (right)."""
-    return _row([M.murex(seed, inside=False), M.murex(seed)], APERTURE_VIEW, SHELL_UP)
+    return _row([murex(seed, inside=False), murex(seed)], APERTURE_VIEW, SHELL_UP)
 
 
 def figure_14(seed: int = 0) -> Node:
     """Figure 14: the model of Murex cabritii."""
-    return M.murex(seed)
+    return murex(seed)
 
 
 @dataclass(frozen=True)
