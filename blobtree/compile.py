@@ -17,6 +17,7 @@ associative), so a point meets O(log n) boxes instead of n.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -26,10 +27,12 @@ from . import nodes as N
 from . import specialize as S
 from .fields import FALLOFFS
 
-#: Batches at least this large are sorted into cells that run specialised programs.
-BINNED_MIN = 20_000
-BIN_POINTS = 2_000
-BIN_MAX = 32
+#: Batches at least this large run through the grid of specialised programs.
+GRID_MIN_POINTS = 20_000
+GRID_CELLS_PER_PRIMITIVE = 64
+GRID_MIN_CELLS = 4_096
+GRID_MAX_CELLS = 64**3
+GRID_MAX_INSTRUCTIONS = 4_000_000
 
 #: Children per leaf group of the bounding-volume hierarchy built over associative operators.
 GROUP = 4
@@ -37,6 +40,29 @@ GROUP = 4
 _ASSOCIATIVE = {N.Blend: K.OP_BLEND, N.SuperBlend: K.OP_SUPER, N.Union: K.OP_UNION}
 _OTHER_OPS = {N.Intersection: K.OP_INTER, N.Difference: K.OP_DIFF,
               N.ControlledBlend: K.OP_CBLEND}
+
+
+@dataclass
+class Grid:
+    """Per-cell specialised programs (see specialize.py): cell c runs rows start[c]:start[c+1]."""
+
+    start: np.ndarray
+    code: np.ndarray
+    boxes: np.ndarray
+    lips: np.ndarray
+    lo: np.ndarray
+    size: np.ndarray
+    dims: np.ndarray
+
+    @property
+    def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(start, code, boxes) for ``specialize.eval_point_grid``."""
+        return self.start, self.code, self.boxes
+
+    @property
+    def frame(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(lo, size, dims) of the grid."""
+        return self.lo, self.size, self.dims
 
 
 @dataclass
@@ -65,16 +91,33 @@ class Program:
         f = np.empty(n)
         g = np.empty((n, 3)) if mode > 0 else np.empty((0, 3))
         c = np.empty((n, 3)) if mode > 1 else np.empty((0, 3))
-        lo, hi = self.bounds
-        if n >= BINNED_MIN and np.all(np.isfinite(lo)) and np.all(hi > lo):
-            # about BIN_POINTS points per cell, at most BIN_MAX cells a side
-            side = int(np.clip(round((n / BIN_POINTS) ** (1 / 3)), 1, BIN_MAX))
-            dims = np.full(3, side, dtype=np.int64)
-            S.eval_binned(self.code, self.params, self.boxes, self.lips, P, mode, self.depth,
-                          lo, hi, dims, f, g, c)
+        grid = self.grid if n >= GRID_MIN_POINTS else None
+        if grid is not None:
+            S.eval_grid_batch(*grid.arrays, self.params, *grid.frame, P, mode, self.depth,
+                              f, g, c)
         else:
             K.eval_batch(self.code, self.params, self.boxes, P, mode, self.depth, f, g, c)
         return f, g, c
+
+    @cached_property
+    def grid(self) -> Grid | None:
+        """The program specialised to each cell of a grid over the bounds (built on first use),
+        or None for an empty or unbounded tree."""
+        lo, hi = self.bounds
+        if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)) and np.all(hi > lo)):
+            return None
+        nprim = int(np.sum(self.code[:, 0] <= K.OP_CYLINDER))
+        cells = int(np.clip(GRID_CELLS_PER_PRIMITIVE * nprim, GRID_MIN_CELLS, GRID_MAX_CELLS))
+        while True:
+            ext = hi - lo
+            dims = np.maximum(1, np.round(ext * (cells / np.prod(ext)) ** (1 / 3))).astype(
+                np.int64)
+            size = ext / dims
+            start, gc, gb, gl = S.build_grid(self.code, self.boxes, self.lips, lo, size, dims,
+                                             1e-9 * float(ext.max()))
+            if len(gc) <= GRID_MAX_INSTRUCTIONS or cells <= GRID_MIN_CELLS:
+                return Grid(start, gc, gb, gl, lo.copy(), size, dims)
+            cells //= 4
 
     def field(self, P: np.ndarray) -> np.ndarray:
         """Field values (N,) at (N, 3) points."""

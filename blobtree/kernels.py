@@ -176,7 +176,7 @@ def _warp(op, p, o, x, y, z, ps, pp, mode):
     return nx, ny, nz
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def eval_point(code, params, boxes, x, y, z, mode, vs, ps):
     """Field at (x, y, z); mode 1 also leaves the gradient in vs[0, 1:4], mode 2 the gradient
     and the colour in vs[0, 4:7]."""
