@@ -84,9 +84,9 @@ def specialize(code, boxes, lips, lo, hi, oc, ob, ol):
                     n = _zero(oc, ob, ol, n)
                 z = True
             else:
-                if cop == K.OP_COLOR or f_kept[top] > 1:
+                if K.is_paint(cop) or f_kept[top] > 1:
                     n = _copy(code, boxes, lips, closing, oc, ob, ol, n)
-                    if cop != K.OP_COLOR:
+                    if not K.is_paint(cop):
                         oc[n - 1, 3] = f_kept[top]
                 if f_head[top] >= 0:
                     oc[f_head[top], 2] = n
@@ -138,7 +138,7 @@ def specialize(code, boxes, lips, lo, hi, oc, ob, ol):
         if have and top >= 0:
             cop = code[f_end[top] - 1, 0]
             # a zero child kills an intersection, a colour node, or a difference's first child
-            if z and (cop == K.OP_INTER or cop == K.OP_COLOR
+            if z and (cop == K.OP_INTER or K.is_paint(cop)
                       or (cop == K.OP_DIFF and f_first[top])):
                 f_dead[top] = True
             if not z or cop == K.OP_CBLEND:
