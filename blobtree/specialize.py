@@ -1,0 +1,235 @@
+"""Program specialisation to a region: the tape shortening of Keeter's MPR, for BlobTrees.
+
+Given a box of space (a cell of points, an image tile's frustum, a mesher block), ``specialize``
+copies the program keeping only what can be non-zero there: a subtree whose box misses the region
+becomes nothing (inside a blend, super-elliptic blend or union, where a 0 changes nothing) or one
+ZERO instruction; an intersection with a zero child, or a difference whose first child is zero,
+becomes ZERO; box tests that contain the whole region are dropped.  Parameters are shared with the
+full program.  Points in the region evaluate exactly as with the full program.
+
+``build_grid`` specialises the program to every cell of a grid over the tree's bounds (done
+once per program); ``eval_point_grid`` finds a point's cell and runs that cell's short program:
+for the 126-blob whorl a point then meets ~8 instructions instead of ~26.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from . import kernels as K
+
+
+@njit(cache=True, inline="always")
+def _misses(boxes, i, lo, hi):
+    return (hi[0] < boxes[i, 0] or hi[1] < boxes[i, 1] or hi[2] < boxes[i, 2]
+            or lo[0] > boxes[i, 3] or lo[1] > boxes[i, 4] or lo[2] > boxes[i, 5])
+
+
+@njit(cache=True, inline="always")
+def _contains(boxes, i, lo, hi):
+    return (boxes[i, 0] <= lo[0] and boxes[i, 1] <= lo[1] and boxes[i, 2] <= lo[2]
+            and hi[0] <= boxes[i, 3] and hi[1] <= boxes[i, 4] and hi[2] <= boxes[i, 5])
+
+
+@njit(cache=True, inline="always")
+def _copy(code, boxes, lips, i, oc, ob, ol, n):
+    for c in range(4):
+        oc[n, c] = code[i, c]
+    for c in range(6):
+        ob[n, c] = boxes[i, c]
+    ol[n] = lips[i]
+    return n + 1
+
+
+@njit(cache=True, inline="always")
+def _zero(oc, ob, ol, n):
+    oc[n, 0] = K.OP_ZERO
+    oc[n, 1] = 0
+    oc[n, 2] = n + 1
+    oc[n, 3] = 0
+    for c in range(6):
+        ob[n, c] = 0.0
+    ol[n] = 0.0
+    return n + 1
+
+
+@njit(cache=True)
+def specialize(code, boxes, lips, lo, hi, oc, ob, ol):
+    """Write the program specialised to the box [lo, hi] into oc, ob, ol; return its length.
+
+    One pass over the program with a stack of open subtrees (a BOX head, its children, then the
+    closing operator or COLOR at the head's skip target - 1)."""
+    ncode = code.shape[0]
+    cap = ncode + 1
+    f_end = np.empty(cap, dtype=np.int64)     # source index after the subtree
+    f_start = np.empty(cap, dtype=np.int64)   # output index where it began
+    f_head = np.empty(cap, dtype=np.int64)    # output index of its kept BOX head, or -1
+    f_kept = np.empty(cap, dtype=np.int64)    # children that produce instructions
+    f_first = np.empty(cap, dtype=np.bool_)
+    f_dead = np.empty(cap, dtype=np.bool_)
+    f_drop = np.empty(cap, dtype=np.bool_)    # may this subtree vanish if zero?
+    top = -1
+    n = 0
+    i = 0
+    while True:
+        z = False
+        have = False  # a finished subtree with result z to report to its parent
+        if top >= 0 and i == f_end[top] - 1:
+            closing = i
+            cop = code[closing, 0]
+            if f_dead[top] or f_kept[top] == 0:
+                n = f_start[top]
+                if not f_drop[top]:
+                    n = _zero(oc, ob, ol, n)
+                z = True
+            else:
+                if K.is_paint(cop) or f_kept[top] > 1:
+                    n = _copy(code, boxes, lips, closing, oc, ob, ol, n)
+                    if not K.is_paint(cop):
+                        oc[n - 1, 3] = f_kept[top]
+                if f_head[top] >= 0:
+                    oc[f_head[top], 2] = n
+            i = f_end[top]
+            top -= 1
+            have = True
+        elif i >= ncode:
+            break
+        else:
+            # zeros vanish from blends, super-elliptic blends, unions and differences'
+            # subtrahends; controlled blends keep them in place (their pairs index children)
+            drop = top >= 0 and code[f_end[top] - 1, 0] != K.OP_CBLEND
+            op = code[i, 0]
+            if op <= K.OP_CYLINDER:
+                if _misses(boxes, i, lo, hi):
+                    z = True
+                    if not drop:
+                        n = _zero(oc, ob, ol, n)
+                else:
+                    n = _copy(code, boxes, lips, i, oc, ob, ol, n)
+                i += 1
+                have = True
+            elif _misses(boxes, i, lo, hi):
+                z = True
+                if not drop:
+                    n = _zero(oc, ob, ol, n)
+                i = code[i, 2]
+                have = True
+            elif op == K.OP_PUSHPT:  # inside a warp the frame differs: copy verbatim
+                shift = n - i
+                for j in range(i, code[i, 2]):
+                    n = _copy(code, boxes, lips, j, oc, ob, ol, n)
+                    oc[n - 1, 2] = code[j, 2] + shift
+                i = code[i, 2]
+                have = True
+            else:  # a BOX head opens a subtree
+                top += 1
+                f_end[top] = code[i, 2]
+                f_start[top] = n
+                f_head[top] = -1
+                if not _contains(boxes, i, lo, hi):
+                    f_head[top] = n
+                    n = _copy(code, boxes, lips, i, oc, ob, ol, n)
+                f_kept[top] = 0
+                f_first[top] = True
+                f_dead[top] = False
+                f_drop[top] = drop
+                i += 1
+        if have and top >= 0:
+            cop = code[f_end[top] - 1, 0]
+            # a zero child kills an intersection, a colour node, or a difference's first child
+            if z and (cop == K.OP_INTER or K.is_paint(cop)
+                      or (cop == K.OP_DIFF and f_first[top])):
+                f_dead[top] = True
+            if not z or cop == K.OP_CBLEND:
+                f_kept[top] += 1
+            f_first[top] = False
+    return n
+
+
+@njit(cache=True, inline="always")
+def _cell_box(c, lo, size, dims, pad, clo, chi):
+    r = c
+    for ax in range(2, -1, -1):
+        k = r % dims[ax]
+        r //= dims[ax]
+        clo[ax] = lo[ax] + k * size[ax] - pad
+        chi[ax] = lo[ax] + (k + 1) * size[ax] + pad
+
+
+@njit(parallel=True, cache=True)
+def build_grid(code, boxes, lips, lo, size, dims, pad):
+    """Specialise the program to every cell of a grid: (start (ncell + 1), code, boxes, lips),
+    cell c's program being rows start[c]:start[c + 1] (skip targets relative to its start)."""
+    ncell = dims[0] * dims[1] * dims[2]
+    n = code.shape[0]
+    lengths = np.zeros(ncell + 1, dtype=np.int64)
+    nchunk = min(ncell, 256)
+    for ch in prange(nchunk):
+        oc = np.empty((n, 4), dtype=np.int64)
+        ob = np.empty((n, 6))
+        ol = np.empty(n)
+        clo = np.empty(3)
+        chi = np.empty(3)
+        for c in range(ch, ncell, nchunk):
+            _cell_box(c, lo, size, dims, pad, clo, chi)
+            lengths[c + 1] = specialize(code, boxes, lips, clo, chi, oc, ob, ol)
+    start = np.cumsum(lengths)
+    total = start[-1]
+    gc = np.empty((total, 4), dtype=np.int64)
+    gb = np.empty((total, 6))
+    gl = np.empty(total)
+    for ch in prange(nchunk):  # again, copying out (specialize may write past its final length)
+        oc = np.empty((n, 4), dtype=np.int64)
+        ob = np.empty((n, 6))
+        ol = np.empty(n)
+        clo = np.empty(3)
+        chi = np.empty(3)
+        for c in range(ch, ncell, nchunk):
+            _cell_box(c, lo, size, dims, pad, clo, chi)
+            m = specialize(code, boxes, lips, clo, chi, oc, ob, ol)
+            a = start[c]
+            gc[a:a + m] = oc[:m]
+            gb[a:a + m] = ob[:m]
+            gl[a:a + m] = ol[:m]
+    return start, gc, gb, gl
+
+
+@njit(cache=True, inline="always")
+def cell_of(x, y, z, lo, size, dims):
+    """Index of the grid cell holding (x, y, z), or -1 outside the grid."""
+    c = 0
+    v = (x, y, z)
+    for ax in range(3):
+        t = (v[ax] - lo[ax]) / size[ax]
+        if not (0.0 <= t <= dims[ax]):
+            return -1
+        c = c * dims[ax] + min(int(t), dims[ax] - 1)
+    return c
+
+
+@njit(cache=True, inline="always")
+def eval_point_grid(start, gc, gb, params, lo, size, dims, x, y, z, mode, vs, ps):
+    """``kernels.eval_point`` through the grid of specialised programs (0 outside the grid)."""
+    c = cell_of(x, y, z, lo, size, dims)
+    if c < 0:
+        K._push_zero(vs, 0, mode)
+        return 0.0
+    a, b = start[c], start[c + 1]
+    return K.eval_point(gc[a:b], params, gb[a:b], x, y, z, mode, vs, ps)
+
+
+@njit(parallel=True, cache=True)
+def eval_grid_batch(start, gc, gb, params, lo, size, dims, P, mode, depth, out_f, out_g, out_c):
+    """Evaluate (N, 3) points in parallel chunks through the grid of specialised programs."""
+    n = P.shape[0]
+    nchunks = (n + K.CHUNK - 1) // K.CHUNK
+    for ch in prange(nchunks):
+        vs, ps = K.scratch(depth)
+        for m in range(ch * K.CHUNK, min(n, (ch + 1) * K.CHUNK)):
+            out_f[m] = eval_point_grid(start, gc, gb, params, lo, size, dims,
+                                       P[m, 0], P[m, 1], P[m, 2], mode, vs, ps)
+            if mode > 0:
+                out_g[m, 0], out_g[m, 1], out_g[m, 2] = vs[0, 1], vs[0, 2], vs[0, 3]
+            if mode > 1:
+                out_c[m, 0], out_c[m, 1], out_c[m, 2] = vs[0, 4], vs[0, 5], vs[0, 6]
