@@ -4,6 +4,7 @@ and Wyvill, "Modeling Murex cabritii sea shell with a structured implicit surfac
 from . import models
 from .compile import Program, compile_tree
 from .io import load, save
+from .mesh import Mesh, polygonize
 from .nodes import (
     ISO,
     Blend,
@@ -35,5 +36,5 @@ __all__ = [
     "ISO", "Blend", "Color", "Cone", "ControlledBlend", "Cylinder", "Difference", "Disc",
     "Intersection", "Node", "Point", "Primitive", "Program", "Segment", "SuperBlend", "Torus",
     "Union", "blend", "compile_tree", "controlled_blend", "difference", "intersection", "load",
-    "models", "save", "super_blend", "union",
+    "Mesh", "models", "polygonize", "save", "super_blend", "union",
 ]

@@ -9,6 +9,7 @@ import numpy as np
 
 from .. import __version__
 from ..nodes import Node
+from .mesh_cmd import mesh
 from .scenes import BUILTIN, resolve_scene
 
 
@@ -45,6 +46,8 @@ def list_models() -> None:
     for name in sorted(BUILTIN):
         click.echo(name)
 
+
+main.add_command(mesh)
 
 if __name__ == "__main__":
     main()
