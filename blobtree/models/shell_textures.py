@@ -114,7 +114,7 @@ def body_whorl_texture(seed: int = 0, height: int = 128, width: int = 256) -> np
     for place, s in zip(places, strengths, strict=True):
         lines = np.maximum(lines, s * _spot(u - place, 0.6 / width))
     rgb = _mix(rgb, PINK_BROWN * 0.8, 0.35 * lines)
-    return _to_image(rgb * (1.0 - 0.04 * _periodic_noise(rng, u + 0.3 * v, 8))[..., None])
+    return _to_image(rgb * (1.0 - 0.04 * _periodic_noise(rng, u + v, 8))[..., None])
 
 
 def varix_spine_texture(seed: int = 0, height: int = 128, width: int = 32) -> np.ndarray:
