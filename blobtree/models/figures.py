@@ -1,5 +1,7 @@
 """The models of the paper's figures (3-11 and 14), each a function returning one BlobTree, and
-:data:`FIGURES`: for each figure its builder, a suggested camera and the paper's caption."""
+:data:`FIGURES`: for each figure its builder, a suggested camera and the paper's caption.
+Figure 12 shows textures, not a model: :func:`figure_12` returns an image, listed in
+:data:`TEXTURE_FIGURES`."""
 
 from __future__ import annotations
 
@@ -27,6 +29,7 @@ from .murex import (
     varix,
     whorl,
 )
+from .shell_textures import SHELL_TEXTURES
 
 #: Shell figures are seen with the apex up (the shell grows toward +y, see murex.py) ...
 SHELL_UP = (0.0, -1.0, 0.0)
@@ -146,9 +149,35 @@ def figure_11(seed: int = 0) -> Node:
     return _row([murex(seed, inside=False), murex(seed)], APERTURE_VIEW, SHELL_UP)
 
 
+def figure_12(seed: int = 0, height: int = 256, gap: int = 16, label_height: int = 24,
+              background: tuple[int, int, int] = (255, 255, 255)) -> np.ndarray:
+    """Figure 12: the four textures of the shell (Section 3.4) side by side, as the model of
+    ``seed`` uses them, each scaled to ``height`` rows (the narrow spine textures to at least
+    height / 2 columns) and labelled by its use; an (H, W, 3) uint8 image."""
+    from PIL import Image, ImageDraw
+
+    if isinstance(height, bool) or not isinstance(height, int) or not 16 <= height <= 4096:
+        raise ValueError(f"height must be an integer in [16, 4096], got {height!r}")
+    panels = []
+    for t in SHELL_TEXTURES.values():
+        img = t.make(seed)
+        h, w = img.shape[:2]
+        width = max(round(height * w / h), height // 2)
+        panels.append((t.label, Image.fromarray(img).resize((width, height), Image.BICUBIC)))
+    total = sum(p.width for _, p in panels) + gap * (len(panels) + 1)
+    canvas = Image.new("RGB", (total, height + label_height + 2 * gap), background)
+    draw = ImageDraw.Draw(canvas)
+    x = gap
+    for label, panel in panels:
+        canvas.paste(panel, (x, gap))
+        draw.text((x, height + gap + 4), label, fill=(0, 0, 0))
+        x += panel.width + gap
+    return np.asarray(canvas)
+
+
 def figure_14(seed: int = 0) -> Node:
-    """Figure 14: the model of Murex cabritii."""
-    return murex(seed)
+    """Figure 14: the model of Murex cabritii, textured (Section 3.4)."""
+    return murex(seed, textured=True)
 
 
 @dataclass(frozen=True)
@@ -178,6 +207,20 @@ class Figure:
         return {"eye": tuple(map(float, eye)), "target": tuple(map(float, target)),
                 "up": tuple(map(float, u)), "fov": self.fov}
 
+
+@dataclass(frozen=True)
+class TextureFigure:
+    """A figure of the paper that shows images, not a model: how to draw it, its caption."""
+
+    draw: Callable[[], np.ndarray]
+    caption: str
+
+
+#: Figure number -> image-drawing function and the paper's caption (figures of textures).
+TEXTURE_FIGURES: dict[str, TextureFigure] = {
+    "12": TextureFigure(figure_12, "Textures and their corresponding uses in the model of "
+                                   "Murex cabritii."),
+}
 
 #: Figure number -> model, camera and the paper's caption.
 FIGURES: dict[str, Figure] = {

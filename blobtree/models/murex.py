@@ -31,7 +31,9 @@ from ..nodes import (
     super_blend,
     union,
 )
+from ..texture import HelicoSurface
 from .helico import MUREX_SPIRAL, place
+from .shell_textures import SHELL_TEXTURES, VARIX_PALE, shell_textures
 from .whorl import THETA_S
 
 # ---------------------------------------------------------------------------------------------
@@ -88,6 +90,15 @@ COLOURS = {
     "bump": (0.62, 0.45, 0.34),
     "inside": (0.95, 0.78, 0.72),
 }
+
+#: Section 3.4: the bounding surface of texture (a), a tube around the spiral with one texture copy
+#: per 116 deg section.  The body's tube has radius 1.04-1.16 D (six points of radius 1.8 D per
+#: section, blended with the neighbours), so S at 1.25 D bounds it with a short walk to S (steps
+#: of 0.1 D: the walk runs nearly along the tube's normal, so the (u, v) found hardly depend on
+#: the step; a larger S or finer steps cost more for no visible change).  theta_max: the
+#: model's extent along the spiral (126 instances), which limits the whorls S looks through.
+BODY_MAPPING = HelicoSurface(spiral=MUREX_SPIRAL, u_period=SECTION_DEG, radius_factor=1.25,
+                             step=0.1, theta_max=INSTANCES * THETA_S)
 
 #: x of the shell axis in the local frame: -R / D (a constant, since D = 0.341 R by Eq. 7).
 AXIS_X = -MUREX_SPIRAL.radius(0.0) / MUREX_SPIRAL.size(0.0)
@@ -279,10 +290,16 @@ def sections(canal_sections: int = CANAL_SECTIONS, choices: Choices = DEFAULT) -
     return out
 
 
-def body_whorl(canal_sections: int = CANAL_SECTIONS, choices: Choices = DEFAULT) -> Node:
+def body_whorl(canal_sections: int = CANAL_SECTIONS, choices: Choices = DEFAULT,
+               texture: np.ndarray | None = None) -> Node:
     """Eq. 10: B_m = c(L_blendpairs)(L_Blobtrees): each section blends with its two neighbours
-    along the spiral only, so adjacent whorls do not blend."""
+    along the spiral only, so adjacent whorls do not blend.  With ``texture`` (Figure 12(a)),
+    each section is textured separately by the bounding surface :data:`BODY_MAPPING`
+    (Section 3.4); the joins lie under the varices."""
     secs = sections(canal_sections, choices)
+    if texture is not None:
+        wrap = SHELL_TEXTURES["body"].wrap
+        secs = [s.texture(texture, mapping=BODY_MAPPING, wrap=wrap) for s in secs]
     pairs = [(j, j + 1) for j in range(SECTIONS - 1)]
     return controlled_blend(secs, pairs=pairs)
 
@@ -324,12 +341,13 @@ def varix_tori(choices: Choices = DEFAULT) -> list[Node]:
 
 
 def varix(whorl_index: int, tori: bool = True, thick_tops: bool = True, widen: bool = True,
-          choices: Choices = DEFAULT) -> Node:
+          choices: Choices = DEFAULT, tori_rgb: np.ndarray | None = None) -> Node:
     """Eq. 12: B_v = B_s + B_r for a varix of this whorl (Table 1, Figure 7), local frame, ready
-    for Eq. 13.  The flags switch off the stages of Figure 7."""
+    for Eq. 13.  The flags switch off the stages of Figure 7; ``tori_rgb`` paints the tori (so
+    that a texture of the whole varix paints only its spines)."""
     parts = varix_spines(whorl_index, thick_tops, widen, choices)
     if tori:
-        parts += varix_tori(choices)
+        parts += [t if tori_rgb is None else t.color(tori_rgb) for t in varix_tori(choices)]
     if not parts:
         raise ValueError(
             f"whorl_index {whorl_index} has no spines in Table 1: its varix needs tori=True"
@@ -337,10 +355,17 @@ def varix(whorl_index: int, tori: bool = True, thick_tops: bool = True, widen: b
     return to_shell_frame(_sum(parts))
 
 
-def varices(choices: Choices = DEFAULT) -> list[Node]:
-    """Eq. 13: B_v placed by Eq. 8 at every 116 deg, three per whorl (21 in all)."""
+def varices(choices: Choices = DEFAULT, texture: np.ndarray | None = None) -> list[Node]:
+    """Eq. 13: B_v placed by Eq. 8 at every 116 deg, three per whorl (21 in all).  With
+    ``texture`` (Figure 12(b)), field-interpolated on the spines' cones (Section 3.4), the
+    tori painted in the texture's pale ground colour."""
+    if texture is None:
+        return [place(varix(whorl_of_varix(k), choices=choices), varix_angle(k))
+                for k in range(1, VARICES + 1)]
+    wrap = SHELL_TEXTURES["varix_spine"].wrap
     return [
-        place(varix(whorl_of_varix(k), choices=choices), varix_angle(k))
+        place(varix(whorl_of_varix(k), choices=choices, tori_rgb=VARIX_PALE).texture(
+            texture, wrap=wrap), varix_angle(k))
         for k in range(1, VARICES + 1)
     ]
 
@@ -498,33 +523,47 @@ def inside_wall(choices: Choices = DEFAULT) -> Node:
 # ---------------------------------------------------------------------------------------------
 
 
-def shell(seed: int = 0, choices: Choices = DEFAULT) -> Node:
+def shell(seed: int = 0, choices: Choices = DEFAULT, textured: bool = True) -> Node:
     """B_shell: the main body whorl with its varices and canal spines blended in, and the bumps
-    joined by the super-elliptic blend n = 400 (Section 3.2)."""
+    joined by the super-elliptic blend n = 400 (Section 3.2).
+
+    ``textured``: the four textures of Figure 12 (generated from ``seed``) by the paper's two
+    methods (Section 3.4): (a) per section by a bounding surface, (b)-(d) on the varix spines,
+    bumps and canal spines, field-interpolated; otherwise plain :data:`COLOURS`.  The geometry
+    is the same either way."""
     bump_seq, spine_seq = np.random.SeedSequence(_check_int("seed", seed, 0, 2**63 - 1)).spawn(2)
-    body = body_whorl(choices=choices).color(COLOURS["body"])
-    spiny = [
-        v.color(COLOURS["varix"])
-        for v in varices(choices) + canal_spines(np.random.default_rng(spine_seq), choices)
-    ]
-    lumps = [b.color(COLOURS["bump"]) for b in bumps(np.random.default_rng(bump_seq),
-                                                      choices=choices)]
+    bump_rng, spine_rng = np.random.default_rng(bump_seq), np.random.default_rng(spine_seq)
+    if not textured:
+        body = body_whorl(choices=choices).color(COLOURS["body"])
+        spiny = [v.color(COLOURS["varix"]) for v in varices(choices) + canal_spines(spine_rng,
+                                                                                     choices)]
+        lumps = [b.color(COLOURS["bump"]) for b in bumps(bump_rng, choices=choices)]
+        return super_blend(blend(body, *spiny), *lumps, n=BUMP_BLEND_N)
+    tex = shell_textures(seed)
+    body = body_whorl(choices=choices, texture=tex["body"])
+    canal_wrap, bump_wrap = SHELL_TEXTURES["canal_spine"].wrap, SHELL_TEXTURES["bump"].wrap
+    spiny = varices(choices, tex["varix_spine"]) + [
+        s.texture(tex["canal_spine"], wrap=canal_wrap) for s in canal_spines(spine_rng, choices)]
+    lumps = [b.texture(tex["bump"], wrap=bump_wrap) for b in bumps(bump_rng, choices=choices)]
     return super_blend(blend(body, *spiny), *lumps, n=BUMP_BLEND_N)
 
 
-def murex(seed: int = 0, inside: bool = True, **choices: float) -> Node:
+def murex(seed: int = 0, inside: bool = True, textured: bool = True,
+          **choices: float) -> Node:
     """The whole Murex cabritii shell (Figure 14), Eq. 15:
     B_murex = (B_shell - B_opening) U B_inside_wall.
 
-    ``seed`` drives the bump sizes and canal spine bends; ``inside=False`` stops at Eq. 14 (no
-    inside wall, Figure 11 left); keyword arguments override fields of :class:`Choices`.
+    ``seed`` drives the bump sizes, canal spine bends and textures; ``inside=False`` stops at
+    Eq. 14 (no inside wall, Figure 11 left); ``textured=False`` paints the parts in plain
+    :data:`COLOURS` instead of the textures of Section 3.4 (the inside stays plain either way);
+    keyword arguments override fields of :class:`Choices`.
     """
     allowed = sorted(Choices.__dataclass_fields__)
     unknown = sorted(set(choices) - set(allowed))
     if unknown:
         raise ValueError(f"unknown choice(s) {unknown}; allowed: {allowed}")
     c = replace(DEFAULT, **choices)
-    carved = difference(shell(seed, c), opening(c).color(COLOURS["inside"]))
+    carved = difference(shell(seed, c, textured), opening(c).color(COLOURS["inside"]))
     if not inside:
         return carved
     return union(carved, inside_wall(c).color(COLOURS["inside"]))
