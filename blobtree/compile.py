@@ -152,7 +152,7 @@ class _Emitter:
         self.params: list[float] = []
         self.boxes: list[np.ndarray] = []
         self.lips: list[float] = []
-        self.textures: dict[int, int] = {}
+        self.textures: dict[tuple[str, str], int] = {}
 
     def data(self, values) -> int:
         """Append raw parameter data (no instruction); return its offset."""
@@ -216,8 +216,8 @@ class _Emitter:
         return box
 
     def texture_block(self, node: N.Texture) -> int:
-        """The texture image in params as [w, h, wrap, rgb rows in [0, 1]] (once per node)."""
-        key = id(node)
+        """The texture image in params as [w, h, wrap, rgb rows in [0, 1]] (once per image)."""
+        key = (node.digest, node.wrap)
         if key not in self.textures:
             h, w = node.image.shape[:2]
             self.textures[key] = self.data(

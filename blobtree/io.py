@@ -12,8 +12,8 @@ import os
 from typing import Any
 
 from .files import atomic_path
-from .nodes import NODE_TYPES, Node, Operator, Primitive, Unary
-from .texture import HelicoSurface, image_from_text
+from .nodes import NODE_TYPES, Node, Operator, Primitive, Texture, Unary
+from .texture import HelicoSurface, image_from_text, image_to_text
 
 FORMAT = "blobtree-scene"
 VERSION = 1
@@ -49,8 +49,16 @@ class SceneError(ValueError):
 
 
 def to_dict(tree: Node) -> dict[str, Any]:
-    """The scene document of a tree."""
-    return {"format": FORMAT, "version": VERSION, "root": _node_dict(tree)}
+    """The scene document of a tree; texture images are stored once each under "images"."""
+    images: dict[str, str] = {}
+    for node in tree.walk():
+        if isinstance(node, Texture) and node.digest not in images:
+            images[node.digest] = image_to_text(node.image)
+    doc: dict[str, Any] = {"format": FORMAT, "version": VERSION}
+    if images:
+        doc["images"] = images
+    doc["root"] = _node_dict(tree)
+    return doc
 
 
 def _node_dict(node: Node) -> dict[str, Any]:
@@ -111,7 +119,16 @@ def from_dict(doc: Any) -> Node:
         )
     if "root" not in doc:
         raise SceneError("$.root: missing")
-    return _build(doc["root"], "$.root")
+    raw = doc.get("images", {})
+    if not isinstance(raw, dict) or not all(isinstance(v, str) for v in raw.values()):
+        raise SceneError("$.images: expected an object of base64 PNG strings")
+    images: dict[str, Any] = {}
+    for key, text in raw.items():
+        try:
+            images[key] = image_from_text(text)
+        except ValueError as e:
+            raise SceneError(f"$.images.{key}: {e}") from None
+    return _build(doc["root"], "$.root", images)
 
 
 def _kind(v: Any) -> str:
@@ -140,7 +157,7 @@ def _check_value(kind: str, v: Any, path: str) -> Any:
     return v
 
 
-def _build(d: Any, path: str) -> Node:
+def _build(d: Any, path: str, images: dict[str, Any]) -> Node:
     if not isinstance(d, dict):
         raise SceneError(f"{path}: expected a node object, got {_kind(d)}")
     t = d.get("type")
@@ -170,10 +187,12 @@ def _build(d: Any, path: str) -> Node:
     if issubclass(cls, Unary) and len(raw_children) != 1:
         raise SceneError(f"{path}.children: {t!r} takes exactly one child, "
                          f"got {len(raw_children)}")
-    children = [_build(c, f"{path}.children[{i}]") for i, c in enumerate(raw_children)]
+    children = [_build(c, f"{path}.children[{i}]", images) for i, c in enumerate(raw_children)]
     try:
         if t == "texture":  # embedded data only: a scene file never names files to read
-            params = dict(params, image=image_from_text(params["image"]))
+            if params["image"] not in images:
+                raise SceneError(f"{path}.params.image: {params['image']!r} is not in $.images")
+            params = dict(params, image=images[params["image"]])
             if params["mapping"] != "primitive":
                 params["mapping"] = HelicoSurface.from_dict(params["mapping"]["helico"])
         if issubclass(cls, Operator):

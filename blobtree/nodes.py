@@ -1093,7 +1093,12 @@ class Texture(Unary):
     def params(self):
         mapping = self.mapping if self.mapping == "primitive" else {
             "helico": self.mapping.to_dict()}
-        return {"image": tex.image_to_text(self.image), "mapping": mapping, "wrap": self.wrap}
+        return {"image": self.digest, "mapping": mapping, "wrap": self.wrap}
+
+    @cached_property
+    def digest(self) -> str:
+        """Content key of the image (scene files store each distinct image once)."""
+        return tex.image_digest(self.image)
 
 
 # ============================================================================================

@@ -21,6 +21,7 @@ Images are kept as 8-bit RGB (so scene files round-trip them exactly) and sample
 from __future__ import annotations
 
 import base64
+import hashlib
 import io
 import math
 import os
@@ -75,6 +76,13 @@ def load_image(source: TextureSource) -> np.ndarray:
     if not np.all(np.isfinite(arr)) or arr.min() < 0.0 or arr.max() > 1.0:
         raise ValueError("image values must be finite and lie in [0, 1] (or be uint8)")
     return np.round(arr * 255.0).astype(np.uint8)
+
+
+def image_digest(image: np.ndarray) -> str:
+    """A content key for an image: equal images share one copy in programs and scene files."""
+    h = hashlib.sha256(np.ascontiguousarray(image).tobytes())
+    h.update(str(image.shape).encode())
+    return "sha256:" + h.hexdigest()[:32]
 
 
 def image_to_text(image: np.ndarray) -> str:
