@@ -1,0 +1,187 @@
+"""Rendering one rectangle of the image: the unit of parallel and distributed work.
+
+Every pixel depends only on its own coordinates (anti-aliasing jitter comes from a hash of the
+seed, the pixel and the sample index), so any set of tiles, rendered in any order on any machine,
+assembles into a byte-identical image.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit, prange
+
+from .. import kernels
+from .camera import Camera, as_color
+from .shade import Light, linear_to_srgb_byte, pack_lights, shade, srgb_to_linear
+from .trace import clip_box, trace
+
+#: Largest image side accepted (a 16384^2 image is 805 MB of RGB).
+MAX_SIDE = 16384
+MAX_SAMPLES = 1024
+#: Smallest ray step, as a fraction of the scene's diagonal (camera rays also allow a
+#: quarter-pixel footprint).
+EPS_SCENE = 1e-6
+#: Shadow-ray start offset along the normal, as a fraction of the scene's diagonal.
+SHADOW_OFFSET = 1e-4
+
+
+@dataclass(frozen=True)
+class RenderSettings:
+    """Everything besides the scene, camera and lights that decides the pixels."""
+
+    width: int
+    height: int
+    samples: int = 1
+    shadows: bool = True
+    background: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    ambient: float = 0.12
+    specular: float = 0.25
+    shininess: float = 40.0
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        for name in ("width", "height"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | np.integer) and 1 <= v <= MAX_SIDE):
+                raise ValueError(f"{name} must be an integer in [1, {MAX_SIDE}], got {v!r}")
+        if not (isinstance(self.samples, int | np.integer) and 1 <= self.samples <= MAX_SAMPLES):
+            raise ValueError(
+                f"samples must be an integer in [1, {MAX_SAMPLES}], got {self.samples!r}"
+            )
+        object.__setattr__(self, "background", tuple(float(c) for c in as_color(
+            "background", self.background)))
+        for name in ("ambient", "specular", "shininess"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0.0):
+                raise ValueError(f"{name} must be a finite number >= 0, got {v!r}")
+        if not (isinstance(self.seed, int | np.integer) and 0 <= self.seed < 2**32):
+            raise ValueError(f"seed must be an integer in [0, 2**32), got {self.seed!r}")
+
+
+def check_rect(settings: RenderSettings, x0: int, y0: int, x1: int, y1: int) -> None:
+    """ValueError unless 0 <= x0 < x1 <= width and 0 <= y0 < y1 <= height."""
+    if not (0 <= x0 < x1 <= settings.width and 0 <= y0 < y1 <= settings.height):
+        raise ValueError(
+            f"tile (x0, y0, x1, y1) = ({x0}, {y0}, {x1}, {y1}) must satisfy "
+            f"0 <= x0 < x1 <= {settings.width} and 0 <= y0 < y1 <= {settings.height}"
+        )
+
+
+def render_tile(prog, camera: Camera, lights: list[Light], settings: RenderSettings,
+                x0: int, y0: int, x1: int, y1: int) -> np.ndarray:
+    """Pixels [y0, y1) x [x0, x1) of the image, as a (y1 - y0, x1 - x0, 3) uint8 array."""
+    check_rect(settings, x0, y0, x1, y1)
+    if not isinstance(camera, Camera):
+        raise ValueError(f"camera must be a blobtree Camera, got {camera!r}")
+    return trace_rect(prog, camera.packed(settings.width, settings.height), pack_lights(lights),
+                      settings, x0, y0, x1, y1)
+
+
+def trace_rect(prog, cam: np.ndarray, lights: np.ndarray, settings: RenderSettings,
+               x0: int, y0: int, x1: int, y1: int) -> np.ndarray:
+    """:func:`render_tile` on an already packed camera and lights (no argument checks)."""
+    code, params, boxes, lips = prog.arrays
+    lo, hi = (np.asarray(b, dtype=np.float64) for b in prog.bounds)
+    diag = float(np.linalg.norm(hi - lo))
+    s = settings
+    return _render_rect(code, params, boxes, lips, prog.depth, cam, lights, lo, hi,
+                        s.width, s.height, s.samples, s.shadows, np.array(s.background),
+                        s.ambient, s.specular, s.shininess, EPS_SCENE * diag,
+                        SHADOW_OFFSET * diag, s.seed, x0, y0, x1, y1)
+
+
+@njit(cache=True)
+def _hash(a):
+    """A 32-bit integer mix (Wellons' lowbias32 shape) on int64 values in [0, 2^32)."""
+    a ^= a >> 16
+    a = (a * 0x7FEB352D) & 0xFFFFFFFF
+    a ^= a >> 15
+    a = (a * 0x5BD1E995) & 0xFFFFFFFF
+    a ^= a >> 16
+    return a
+
+
+@njit(cache=True)
+def _uniform(seed, x, y, s, k):
+    """A reproducible uniform number in [0, 1) for sample s, coordinate k of pixel (x, y)."""
+    h = _hash((seed ^ x) & 0xFFFFFFFF)
+    h = _hash((h + y) & 0xFFFFFFFF)
+    h = _hash((h + s * 2 + k) & 0xFFFFFFFF)
+    return h / 4294967296.0
+
+
+@njit(cache=True, parallel=True)
+def _render_rect(code, params, boxes, lips, depth, cam, lights, lo, hi, width, height, samples,
+                 shadows, background, ambient, specular, shininess, eps_abs, shadow_eps, seed,
+                 x0, y0, x1, y1):
+    w = x1 - x0
+    h = y1 - y0
+    npix = w * h
+    out = np.empty((h, w, 3), dtype=np.uint8)
+    bg = np.empty(3)
+    bg_bytes = np.empty(3, dtype=np.uint8)
+    for c in range(3):
+        bg[c] = srgb_to_linear(background[c])
+        bg_bytes[c] = np.uint8(int(background[c] * 255.0 + 0.5))
+    # Quarter of a pixel's angular size: camera rays may skip features thinner than that.
+    eps_rel = 0.5 * np.sqrt(cam[9] ** 2 + cam[10] ** 2 + cam[11] ** 2) / height
+    m = int(np.ceil(np.sqrt(samples)))
+    rows = (samples + m - 1) // m
+    # Interleave pixels over chunks so each thread gets a fair share of the busy ones.
+    nchunks = min(npix, 256)
+    for ch in prange(nchunks):
+        vstack, pstack = kernels.scratch(depth)
+        rgb = np.empty(3)
+        for p in range(ch, npix, nchunks):
+            px = x0 + p % w
+            py = y0 + p // w
+            acc_r = acc_g = acc_b = 0.0
+            hits = 0
+            for s in range(samples):
+                if samples == 1:
+                    u = 0.5
+                    v = 0.5
+                else:
+                    u = (s % m + _uniform(seed, px, py, s, 0)) / m
+                    v = (s // m + _uniform(seed, px, py, s, 1)) / rows
+                sx = 2.0 * (px + u) / width - 1.0
+                sy = 1.0 - 2.0 * (py + v) / height
+                dx = cam[3] + sx * cam[6] + sy * cam[9]
+                dy = cam[4] + sx * cam[7] + sy * cam[10]
+                dz = cam[5] + sx * cam[8] + sy * cam[11]
+                n = np.sqrt(dx * dx + dy * dy + dz * dz)
+                dx /= n
+                dy /= n
+                dz /= n
+                t0, t1 = clip_box(cam[0], cam[1], cam[2], dx, dy, dz, lo, hi, 0.0, np.inf)
+                t = -1.0
+                if t0 <= t1:
+                    t = trace(code, params, boxes, lips, cam[0], cam[1], cam[2], dx, dy, dz,
+                              t0, t1, eps_abs, eps_rel, 0.05 * (t1 - t0) + eps_abs,
+                              vstack, pstack)
+                if t < 0.0:
+                    acc_r += bg[0]
+                    acc_g += bg[1]
+                    acc_b += bg[2]
+                    continue
+                hits += 1
+                shade(code, params, boxes, lips, cam[0] + t * dx, cam[1] + t * dy,
+                      cam[2] + t * dz, dx, dy, dz, lights, lo, hi, shadows, ambient, specular,
+                      shininess, shadow_eps, rgb, vstack, pstack)
+                acc_r += rgb[0]
+                acc_g += rgb[1]
+                acc_b += rgb[2]
+            iy = p // w
+            ix = p % w
+            if hits == 0:
+                out[iy, ix, 0] = bg_bytes[0]
+                out[iy, ix, 1] = bg_bytes[1]
+                out[iy, ix, 2] = bg_bytes[2]
+            else:
+                out[iy, ix, 0] = linear_to_srgb_byte(acc_r / samples)
+                out[iy, ix, 1] = linear_to_srgb_byte(acc_g / samples)
+                out[iy, ix, 2] = linear_to_srgb_byte(acc_b / samples)
+    return out

@@ -1,0 +1,146 @@
+"""Ray-surface intersection by segment tracing (Galin, Gueerin, Paris, Peytavie, CGF 2020).
+
+Along a ray p(t) = o + t d the tracer keeps a candidate segment [t, t + delta].  The engine bounds
+the field's gradient over the segment's bounding box (``kernels.lipschitz_box``); with that local
+Lipschitz bound L, the field cannot reach the iso-value 0.5 before t + (0.5 - f(t)) / L, so that
+step is safe.  The next candidate segment is ``GROWTH`` times the step just taken.  Where the
+support boxes miss the segment, L is 0 and the whole segment is skipped.  Steps never fall below
+``eps`` (a feature thinner than eps along the ray may be skipped: eps is a fraction of a pixel for
+camera rays), and once a step lands inside (f >= 0.5) the root is refined by the Illinois variant
+of regula falsi, which keeps the root bracketed.
+
+All kernels take the program arrays ``code, params, boxes, lips`` of ``Program.arrays`` and the
+per-thread scratch of ``kernels.scratch``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from .. import kernels
+
+ISO = 0.5
+#: Growth factor of the candidate segment (the paper's c).
+GROWTH = 1.5
+#: Regula-falsi iterations after a bracket is found (the bracket shrinks superlinearly).
+REFINE_ITERS = 24
+#: Relative width (of the start bracket) at which refinement stops.
+REFINE_TOL = 1e-10
+
+
+@njit(cache=True)
+def clip_box(ox, oy, oz, dx, dy, dz, lo, hi, tmin, tmax):
+    """Slab test: the parameter range (t0, t1) of the ray inside box [lo, hi] within
+    [tmin, tmax]; t0 > t1 when the ray misses."""
+    t0 = tmin
+    t1 = tmax
+    o = (ox, oy, oz)
+    d = (dx, dy, dz)
+    for k in range(3):
+        if d[k] != 0.0:
+            inv = 1.0 / d[k]
+            a = (lo[k] - o[k]) * inv
+            b = (hi[k] - o[k]) * inv
+            if a > b:
+                a, b = b, a
+            t0 = max(t0, a)
+            t1 = min(t1, b)
+        elif o[k] < lo[k] or o[k] > hi[k]:
+            return 1.0, 0.0
+    return t0, t1
+
+
+@njit(cache=True)
+def _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, ta, fa, tb, fb, vstack, pstack):
+    """Root of f - ISO in [ta, tb] with fa < 0 <= fb (Illinois regula falsi)."""
+    tol = (tb - ta) * REFINE_TOL
+    side = 0
+    for _ in range(REFINE_ITERS):
+        if tb - ta <= tol:
+            break
+        t = (ta * fb - tb * fa) / (fb - fa)
+        if not (ta < t < tb):
+            t = 0.5 * (ta + tb)
+        f = kernels.eval_point(code, params, boxes, ox + t * dx, oy + t * dy, oz + t * dz, 0,
+                               vstack, pstack) - ISO
+        if f >= 0.0:
+            tb, fb = t, f
+            if side == 1:
+                fa *= 0.5
+            side = 1
+        else:
+            ta, fa = t, f
+            if side == -1:
+                fb *= 0.5
+            side = -1
+    return (ta * fb - tb * fa) / (fb - fa) if fb != fa else 0.5 * (ta + tb)
+
+
+@njit(cache=True)
+def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, eps_rel,
+          delta0, vstack, pstack):
+    """First t in [t0, t1] where the field reaches ISO along the unit-direction ray, or -1.
+
+    A ray that starts inside (f >= ISO at t0) hits at t0.  ``eps_abs + eps_rel * t`` is the
+    smallest step.
+    """
+    t = t0
+    f = kernels.eval_point(code, params, boxes, ox + t * dx, oy + t * dy, oz + t * dz, 0,
+                           vstack, pstack) - ISO
+    if f >= 0.0:
+        return t
+    delta = delta0
+    while t < t1:
+        te = min(t + delta, t1)
+        ax = ox + t * dx
+        ay = oy + t * dy
+        az = oz + t * dz
+        bx = ox + te * dx
+        by = oy + te * dy
+        bz = oz + te * dz
+        lam = kernels.lipschitz_box(code, params, boxes, lips, min(ax, bx), min(ay, by),
+                                    min(az, bz), max(ax, bx), max(ay, by), max(az, bz), vstack)
+        step = te - t
+        if lam > 0.0:
+            step = min(step, -f / lam)
+        step = max(step, eps_abs + eps_rel * t)
+        tn = t + step
+        if tn > t1:
+            tn = t1
+        fn = kernels.eval_point(code, params, boxes, ox + tn * dx, oy + tn * dy, oz + tn * dz, 0,
+                                vstack, pstack) - ISO
+        if fn >= 0.0:
+            return _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, t, f, tn, fn,
+                           vstack, pstack)
+        if tn >= t1:
+            break
+        t = tn
+        f = fn
+        delta = GROWTH * step
+    return -1.0
+
+
+@njit(cache=True, parallel=True)
+def intersect_rays(code, params, boxes, lips, depth, origins, directions, lo, hi, tmax, eps_abs):
+    """First hit distance of each ray (directions need not be unit; t is in units of |d|)."""
+    n = origins.shape[0]
+    out = np.full(n, np.nan)
+    nchunks = min(n, 256)
+    for c in prange(nchunks):
+        vstack, pstack = kernels.scratch(depth)
+        for i in range(c, n, nchunks):
+            dx, dy, dz = directions[i, 0], directions[i, 1], directions[i, 2]
+            norm = np.sqrt(dx * dx + dy * dy + dz * dz)
+            dx /= norm
+            dy /= norm
+            dz /= norm
+            ox, oy, oz = origins[i, 0], origins[i, 1], origins[i, 2]
+            t0, t1 = clip_box(ox, oy, oz, dx, dy, dz, lo, hi, 0.0, tmax[i] * norm)
+            if t0 > t1:
+                continue
+            t = trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, 0.0,
+                      0.05 * (t1 - t0) + eps_abs, vstack, pstack)
+            if t >= 0.0:
+                out[i] = t / norm
+    return out
