@@ -1,3 +1,39 @@
-"""blobtree: structured implicit surface modelling (the BlobTree)."""
+"""blobtree: structured implicit surface modelling with the BlobTree (Galbraith, Prusinkiewicz
+and Wyvill, "Modeling Murex cabritii sea shell with a structured implicit surface modeler")."""
+
+from . import models
+from .compile import Program, compile_tree
+from .io import load, save
+from .nodes import (
+    ISO,
+    Blend,
+    Color,
+    Cone,
+    ControlledBlend,
+    Cylinder,
+    Difference,
+    Disc,
+    Intersection,
+    Node,
+    Point,
+    Primitive,
+    Segment,
+    SuperBlend,
+    Torus,
+    Union,
+    blend,
+    controlled_blend,
+    difference,
+    intersection,
+    super_blend,
+    union,
+)
 
 __version__ = "0.1.0"
+
+__all__ = [
+    "ISO", "Blend", "Color", "Cone", "ControlledBlend", "Cylinder", "Difference", "Disc",
+    "Intersection", "Node", "Point", "Primitive", "Program", "Segment", "SuperBlend", "Torus",
+    "Union", "blend", "compile_tree", "controlled_blend", "difference", "intersection", "load",
+    "models", "save", "super_blend", "union",
+]

@@ -14,45 +14,39 @@ import numpy as np
 FALLOFFS = {"soft_object": 0, "cubic": 1}
 
 #: max |df/dr| * R for each falloff (the Lipschitz constant of a primitive of radius 1).
-#: soft object: max over r of |dg/dr|, reached at r = 0.5035 R; cubic: 96 / (25 sqrt 5) at r = R/sqrt 5.
-SLOPE = {"soft_object": 1.5834, "cubic": 96.0 / (25.0 * np.sqrt(5.0))}
+#: Rounded up: soft object 1.583430 at r = 0.5035 R; cubic 96 / (25 sqrt 5) = 1.717300 at R/sqrt 5.
+SLOPE = {"soft_object": 1.58345, "cubic": 1.71731}
 SLOPE_BY_ID = np.array([SLOPE["soft_object"], SLOPE["cubic"]])
 
 
-def soft_object(s):
-    """Wyvill's soft object: 1 - (4/9)s^3 + (17/9)s^2 - (22/9)s; its 0.5 iso lies at r = R/2."""
+def falloff(fid, s):
+    """Falloff number ``fid`` (see :data:`FALLOFFS`) at s = r^2/R^2 < 1.
+
+    0, soft object (Wyvill): 1 - (4/9)s^3 + (17/9)s^2 - (22/9)s, iso 0.5 at r = R/2 exactly;
+    1, cubic: (1 - s)^3, iso 0.5 at r = 0.454202 R.
+    """
+    if fid == 1:
+        t = 1.0 - s
+        return t * t * t
     return 1.0 - (4.0 / 9.0) * s * s * s + (17.0 / 9.0) * s * s - (22.0 / 9.0) * s
 
 
-def soft_object_ds(s):
-    """d/ds of :func:`soft_object`."""
+def falloff_ds(fid, s):
+    """Derivative d/ds of :func:`falloff` at s < 1."""
+    if fid == 1:
+        t = 1.0 - s
+        return -3.0 * t * t
     return -(12.0 / 9.0) * s * s + (34.0 / 9.0) * s - 22.0 / 9.0
 
 
+def soft_object(s):
+    """Wyvill's soft object as a function of s = r^2/R^2 (for s < 1)."""
+    return falloff(0, s)
+
+
 def cubic(s):
-    """Wyvill's cubic in r^2: (1 - s)^3; its 0.5 iso lies at r = 0.454202 R."""
-    t = 1.0 - s
-    return t * t * t
-
-
-def cubic_ds(s):
-    """d/ds of :func:`cubic`."""
-    t = 1.0 - s
-    return -3.0 * t * t
-
-
-def falloff(fid, s):
-    """Falloff number ``fid`` (see :data:`FALLOFFS`) at s, for s < 1."""
-    if fid == 1:
-        return cubic(s)
-    return soft_object(s)
-
-
-def falloff_ds(fid, s):
-    """Derivative d/ds of falloff ``fid`` at s, for s < 1."""
-    if fid == 1:
-        return cubic_ds(s)
-    return soft_object_ds(s)
+    """Wyvill's cubic (1 - s)^3 (for s < 1)."""
+    return falloff(1, s)
 
 
 def falloff_array(name: str, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -1,0 +1,79 @@
+"""Field evaluations per second on whorl126: compiled engine vs plain numpy (issue 2 bench).
+
+The numpy peer computes all 126 primitives at every point, vectorised over points in chunks.
+Run: python bench/bench_engine.py [--sizes 1e6 1e7]
+"""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+import blobtree as bt
+from blobtree import geometry as geo
+from blobtree.fields import falloff
+
+CHUNK = 1 << 16
+
+
+def numpy_peer(tree: bt.Node, P: np.ndarray) -> np.ndarray:
+    """Sum of all point primitives at every point (each primitive's maths in numpy)."""
+    prims = []
+    for inst in tree.children:  # rotate(translate(scale(point)))
+        m, node = geo.IDENTITY, inst
+        while not isinstance(node, bt.Primitive):
+            m = geo.compose(m, node.matrix)
+            node = node.child
+        prims.append((geo.invert(m), node.center, node.radius ** 2))
+    out = np.empty(len(P))
+    for s in range(0, len(P), CHUNK):
+        q0 = P[s:s + CHUNK]
+        acc = np.zeros(len(q0))
+        for inv, c, r2 in prims:
+            q = q0 @ inv[:, :3].T + (inv[:, 3] - c)
+            x = (q * q).sum(axis=1) / r2
+            acc += np.where(x < 1.0, falloff(0, np.minimum(x, 1.0)), 0.0)
+        out[s:s + CHUNK] = acc
+    return out
+
+
+def second_process_start() -> float:
+    """Seconds for a fresh process to import blobtree and evaluate (cache load, no compile)."""
+    code = ("import time; t=time.perf_counter(); import numpy as np, blobtree as bt; "
+            "bt.models.whorl126().field(np.zeros((1, 3))); print(time.perf_counter()-t)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    return float(out.stdout.strip())
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--sizes", type=float, nargs="+", default=[1e6, 1e7])
+    args = ap.parse_args()
+    tree = bt.models.whorl126()
+    t0 = time.perf_counter()
+    prog = tree.program()
+    prog.field(np.zeros((1, 3)))
+    print(f"first call in this process (compile or cache load + tree compile): "
+          f"{time.perf_counter() - t0:.2f} s")
+    print(f"fresh process, import + first evaluation: {second_process_start():.2f} s")
+    lo, hi = prog.bounds
+    rng = np.random.default_rng(1)
+    for n in (int(s) for s in args.sizes):
+        P = rng.uniform(lo, hi, (n, 3))
+        t0 = time.perf_counter()
+        f = prog.field(P)
+        te = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        ref = numpy_peer(tree, P)
+        tn = time.perf_counter() - t0
+        err = np.abs(f - ref).max()
+        print(f"N={n:>9}: engine {te:7.3f} s ({n / te / 1e6:7.1f} M/s)   numpy {tn:7.2f} s "
+              f"({n / tn / 1e6:6.2f} M/s)   ratio {tn / te:6.1f}x   max |diff| {err:.1e}")
+
+
+if __name__ == "__main__":
+    main()

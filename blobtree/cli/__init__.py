@@ -1,0 +1,1 @@
+"""The ``blobtree`` command line."""

@@ -1,0 +1,50 @@
+"""``blobtree``: inspect, render and mesh BlobTree scenes from the command line."""
+
+from __future__ import annotations
+
+from collections import Counter
+
+import click
+import numpy as np
+
+from .. import __version__
+from ..nodes import Node
+from .scenes import BUILTIN, resolve_scene
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="blobtree")
+def main() -> None:
+    """Structured implicit modelling with the BlobTree.
+
+    SCENE is a JSON scene file (see `blobtree.save`) or a built-in model name.
+    """
+
+
+@main.command()
+@click.argument("scene")
+def info(scene: str) -> None:
+    """Node counts by type, bounds and program length of SCENE."""
+    tree: Node = resolve_scene(scene)
+    counts = Counter(n.TYPE for n in tree.walk())
+    prog = tree.program()
+    lo, hi = prog.bounds
+    click.echo(f"scene: {scene}")
+    click.echo(f"nodes: {sum(counts.values())}")
+    for name, n in sorted(counts.items(), key=lambda kv: (-kv[1], kv[0])):
+        click.echo(f"  {name:<18}{n:>8}")
+    np.set_printoptions(precision=4, suppress=True)
+    click.echo(f"bounds: {lo} .. {hi}")
+    click.echo(f"program: {len(prog)} instructions, stack depth {prog.depth}, "
+               f"Lipschitz bound {prog.lipschitz_global:.4g}")
+
+
+@main.command("models")
+def list_models() -> None:
+    """List the built-in model names usable as SCENE."""
+    for name in sorted(BUILTIN):
+        click.echo(name)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,32 @@
+"""SCENE arguments: a JSON scene file or the name of a built-in model."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+import click
+
+from .. import models
+from ..io import SceneError, load
+from ..nodes import Node
+
+#: Built-in models by name: each a function of no arguments returning a tree.
+BUILTIN: dict[str, Callable[[], Node]] = {"whorl126": models.whorl126}
+
+
+def resolve_scene(name: str) -> Node:
+    """Load ``name`` as a scene file if it is one, else build the built-in model of that name."""
+    if name in BUILTIN:
+        return BUILTIN[name]()
+    path = Path(name)
+    if path.suffix.lower() == ".json" or path.exists():
+        if not path.is_file():
+            raise click.BadParameter(f"no such scene file: {name}", param_hint="SCENE")
+        try:
+            return load(path)
+        except SceneError as e:
+            raise click.BadParameter(f"{name}: {e}", param_hint="SCENE") from None
+    raise click.BadParameter(
+        f"{name!r} is neither a scene file nor a built-in model "
+        f"({', '.join(sorted(BUILTIN))})", param_hint="SCENE")

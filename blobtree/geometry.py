@@ -1,0 +1,151 @@
+"""Small geometric helpers shared by the nodes and the compiler: validation, affine maps, boxes."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+AXES = {"x": 0, "y": 1, "z": 2}
+
+#: An axis-aligned box as (lo, hi), each a (3,) float array; empty when any lo > hi.
+Box = tuple[np.ndarray, np.ndarray]
+
+
+def check_vec3(name: str, value: Sequence[float]) -> np.ndarray:
+    """A finite 3-vector, or ValueError naming the parameter."""
+    try:
+        v = np.asarray(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a 3-vector of numbers, got {value!r}") from None
+    if v.shape != (3,):
+        raise ValueError(f"{name} must be a 3-vector of numbers, got {value!r}")
+    if not np.all(np.isfinite(v)):
+        raise ValueError(f"{name} must be finite, got {tuple(v.tolist())!r}")
+    return v
+
+
+def check_positive(name: str, value: float) -> float:
+    """A finite number > 0, or ValueError naming the parameter."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number > 0, got {value!r}") from None
+    if not (math.isfinite(v) and v > 0.0):
+        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+    return v
+
+
+def check_finite(name: str, value: float) -> float:
+    """A finite number, or ValueError naming the parameter."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number, got {value!r}") from None
+    if not math.isfinite(v):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    return v
+
+
+def axis_vector(axis: str | Sequence[float]) -> np.ndarray:
+    """Unit vector for "x", "y", "z" or any non-zero finite 3-vector."""
+    if isinstance(axis, str):
+        if axis not in AXES:
+            raise ValueError(f"axis must be 'x', 'y', 'z' or a 3-vector, got {axis!r}")
+        v = np.zeros(3)
+        v[AXES[axis]] = 1.0
+        return v
+    v = check_vec3("axis", axis)
+    n = np.linalg.norm(v)
+    if n == 0.0:
+        raise ValueError("axis must be a non-zero vector, got (0, 0, 0)")
+    return v / n
+
+
+def rotation_matrix(axis: str | Sequence[float], degrees: float) -> np.ndarray:
+    """3x3 rotation by ``degrees`` about ``axis`` (right-hand rule), Rodrigues' formula."""
+    u = axis_vector(axis)
+    t = math.radians(check_finite("degrees", degrees))
+    k = np.array([[0.0, -u[2], u[1]], [u[2], 0.0, -u[0]], [-u[1], u[0], 0.0]])
+    return np.eye(3) + math.sin(t) * k + (1.0 - math.cos(t)) * (k @ k)
+
+
+def affine(linear: np.ndarray, offset: np.ndarray | None = None) -> np.ndarray:
+    """A 3x4 affine map [A | b] (x -> A x + b)."""
+    m = np.zeros((3, 4))
+    m[:, :3] = linear
+    if offset is not None:
+        m[:, 3] = offset
+    return m
+
+
+IDENTITY = affine(np.eye(3))
+
+
+def compose(outer: np.ndarray, inner: np.ndarray) -> np.ndarray:
+    """The affine map x -> outer(inner(x))."""
+    return affine(outer[:, :3] @ inner[:, :3], outer[:, :3] @ inner[:, 3] + outer[:, 3])
+
+
+def invert(m: np.ndarray) -> np.ndarray:
+    """Inverse of a 3x4 affine map."""
+    a = np.linalg.inv(m[:, :3])
+    return affine(a, -a @ m[:, 3])
+
+
+def apply(m: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """Apply a 3x4 affine map to (N, 3) points."""
+    return p @ m[:, :3].T + m[:, 3]
+
+
+def empty_box() -> Box:
+    return np.full(3, np.inf), np.full(3, -np.inf)
+
+
+def is_empty(box: Box) -> bool:
+    return bool(np.any(box[0] > box[1]))
+
+
+def box_union(boxes: Sequence[Box]) -> Box:
+    lo, hi = empty_box()
+    for b in boxes:
+        lo = np.minimum(lo, b[0])
+        hi = np.maximum(hi, b[1])
+    return lo, hi
+
+
+def box_intersection(boxes: Sequence[Box]) -> Box:
+    lo, hi = np.full(3, -np.inf), np.full(3, np.inf)
+    for b in boxes:
+        lo = np.maximum(lo, b[0])
+        hi = np.minimum(hi, b[1])
+    return lo, hi
+
+
+def box_corners(box: Box) -> np.ndarray:
+    """The 8 corners of a box, (8, 3)."""
+    lo, hi = box
+    idx = np.array([[i >> 2 & 1, i >> 1 & 1, i & 1] for i in range(8)], dtype=bool)
+    return np.where(idx, hi, lo)
+
+
+def transform_box(m: np.ndarray, box: Box) -> Box:
+    """AABB of the image of a box under the affine map m."""
+    if is_empty(box):
+        return box
+    c = 0.5 * (box[0] + box[1])
+    h = 0.5 * (box[1] - box[0])
+    center = m[:, :3] @ c + m[:, 3]
+    half = np.abs(m[:, :3]) @ h
+    return center - half, center + half
+
+
+def ellipsoid_half(m: np.ndarray, radius: float) -> np.ndarray:
+    """Half-extents of the image of a ball of ``radius`` under the linear part of m (exact)."""
+    return radius * np.sqrt((m[:, :3] ** 2).sum(axis=1))
+
+
+def spectral_norm(a: np.ndarray) -> float:
+    """Largest singular value of a 3x3 matrix."""
+    return float(np.linalg.norm(a, 2))

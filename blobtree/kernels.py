@@ -1,0 +1,460 @@
+"""numba kernels that run a compiled BlobTree program (see ``compile.py`` for its layout).
+
+The program is postfix: primitives push (field, gradient, colour) on a value stack, operators pop
+their children and push the result, warps push a transformed point on a point stack.  Every
+primitive and every BOX instruction first tests its world box; a miss pushes 0 and jumps over
+the subtree (``code[i, 2]``), so a subtree whose box misses the point costs one test.
+
+``eval_point`` and ``lipschitz_box`` are the building blocks other kernels (mesh, render) call.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from .fields import falloff, falloff_ds
+
+# Opcodes (code[i, 0]).  Primitives first: every op <= OP_CYLINDER is a primitive.
+OP_POINT, OP_CONE, OP_TORUS, OP_DISC, OP_CYLINDER = 0, 1, 2, 3, 4
+OP_BOX, OP_BLEND, OP_SUPER, OP_UNION, OP_INTER, OP_DIFF, OP_CBLEND = 5, 6, 7, 8, 9, 10, 11
+OP_PUSHPT, OP_BEND, OP_TWIST, OP_TAPER, OP_POPPT, OP_COLOR = 12, 13, 14, 15, 16, 17
+
+#: Size of the common primitive header in params: 3x4 frame->local map, R, falloff id.
+PRIM_HEADER = 14
+DEFAULT_GREY = 0.8
+
+_fo = njit(cache=True, inline="always")(falloff)
+_fo_ds = njit(cache=True, inline="always")(falloff_ds)
+
+
+@njit(cache=True)
+def scratch(depth):
+    """Per-thread stacks for ``eval_point``: values (depth, 7): field, gradient, colour; and
+    points (depth, 30): the point to restore, the Jacobian to the outer frame, warp scratch."""
+    return np.empty((depth, 7)), np.empty((depth, 30))
+
+
+@njit(cache=True, inline="always")
+def _outside(boxes, i, x, y, z):
+    return (x < boxes[i, 0] or y < boxes[i, 1] or z < boxes[i, 2]
+            or x > boxes[i, 3] or y > boxes[i, 4] or z > boxes[i, 5])
+
+
+@njit(cache=True, inline="always")
+def _push_zero(vs, sp, mode):
+    vs[sp, 0] = 0.0
+    if mode == 0:
+        return
+    vs[sp, 1] = 0.0
+    vs[sp, 2] = 0.0
+    vs[sp, 3] = 0.0
+    vs[sp, 4] = DEFAULT_GREY
+    vs[sp, 5] = DEFAULT_GREY
+    vs[sp, 6] = DEFAULT_GREY
+
+
+@njit(cache=True, inline="always")
+def _ring_delta(qx, qy, qz, ring, solid):
+    """q minus the closest point of a circle (or solid disc) of radius ``ring`` in xz."""
+    rho = math.sqrt(qx * qx + qz * qz)
+    if solid and rho <= ring:
+        return 0.0, qy, 0.0
+    if rho > 0.0:
+        return qx - ring * qx / rho, qy, qz - ring * qz / rho
+    return qx - ring, qy, qz
+
+
+@njit(cache=True, inline="always")
+def _prim_s(op, p, o, qx, qy, qz):
+    """s = r^2 / R^2 and ds/dq in the primitive's local coordinates."""
+    h = o + PRIM_HEADER
+    r = p[o + 12]
+    if op == OP_POINT:
+        dx, dy, dz = qx - p[h], qy - p[h + 1], qz - p[h + 2]
+    elif op == OP_CONE:
+        ax, ay, az = p[h], p[h + 1], p[h + 2]
+        ux, uy, uz = p[h + 3] - ax, p[h + 4] - ay, p[h + 5] - az
+        l2 = ux * ux + uy * uy + uz * uz
+        t_raw = ((qx - ax) * ux + (qy - ay) * uy + (qz - az) * uz) / l2
+        t = min(max(t_raw, 0.0), 1.0)
+        dx, dy, dz = qx - ax - t * ux, qy - ay - t * uy, qz - az - t * uz
+        ra, dr = p[h + 6], p[h + 7] - p[h + 6]
+        rt = ra + t * dr
+        d2 = dx * dx + dy * dy + dz * dz
+        s = d2 / (rt * rt)
+        k = 2.0 / (rt * rt)
+        if 0.0 < t_raw < 1.0:
+            c = 2.0 * d2 / (rt * rt * rt) * dr / l2
+            return s, k * dx - c * ux, k * dy - c * uy, k * dz - c * uz
+        return s, k * dx, k * dy, k * dz
+    elif op == OP_TORUS or op == OP_DISC:
+        dx, dy, dz = _ring_delta(qx - p[h + 1], qy - p[h + 2], qz - p[h + 3], p[h],
+                                 op == OP_DISC)
+    else:  # OP_CYLINDER
+        ax, ay, az = p[h], p[h + 1], p[h + 2]
+        ux, uy, uz = p[h + 3] - ax, p[h + 4] - ay, p[h + 5] - az
+        length = math.sqrt(ux * ux + uy * uy + uz * uz)
+        ux, uy, uz = ux / length, uy / length, uz / length
+        wx, wy, wz = qx - ax, qy - ay, qz - az
+        hh = wx * ux + wy * uy + wz * uz
+        rx, ry, rz = wx - hh * ux, wy - hh * uy, wz - hh * uz
+        rho = math.sqrt(rx * rx + ry * ry + rz * rz)
+        sc = min(rho, p[h + 6]) / rho if rho > 0.0 else 0.0
+        t = min(max(hh, 0.0), length)
+        dx = qx - (ax + t * ux + sc * rx)
+        dy = qy - (ay + t * uy + sc * ry)
+        dz = qz - (az + t * uz + sc * rz)
+    k = 1.0 / (r * r)
+    return (dx * dx + dy * dy + dz * dz) * k, 2.0 * k * dx, 2.0 * k * dy, 2.0 * k * dz
+
+
+@njit(cache=True)
+def _warp(op, p, o, x, y, z, ps, pp, mode):
+    """Apply a warp's query map to (x, y, z) and compose its Jacobian into ps[pp, 3:12].
+
+    Params: a signed permutation Pm (9) taking frame axes to the warp's canonical axes, then
+    the canonical parameters.  Canonical forms: bend along x toward +y; twist and taper about z.
+    """
+    X = p[o] * x + p[o + 1] * y + p[o + 2] * z
+    Y = p[o + 3] * x + p[o + 4] * y + p[o + 5] * z
+    Z = p[o + 6] * x + p[o + 7] * y + p[o + 8] * z
+    c = o + 9
+    j00, j01, j02, j10, j11, j12 = 1.0, 0.0, 0.0, 0.0, 1.0, 0.0  # rows 0-1 of dQ/dX; row 2 = e_z
+    if op == OP_BEND:
+        k, length = p[c], p[c + 1]
+        ik = 1.0 / k
+        u, v = X, ik - Y
+        phi = math.atan2(u, v)
+        th = min(max(phi, 0.0), k * length)
+        sn, cs = math.sin(th), math.cos(th)
+        dx, dy = X - sn * ik, Y - (1.0 - cs) * ik
+        qx, qy = th * ik + dx * cs + dy * sn, -dx * sn + dy * cs
+        if 0.0 < phi < k * length:
+            rho2 = u * u + v * v
+            rho = math.sqrt(rho2)
+            j00, j01, j10, j11 = v / (k * rho2), u / (k * rho2), -u / rho, v / rho
+        else:
+            j00, j01, j10, j11 = cs, sn, -sn, cs
+    elif op == OP_TWIST:
+        k = p[c]
+        th = k * Z
+        cs, sn = math.cos(th), math.sin(th)
+        qx, qy = cs * X + sn * Y, -sn * X + cs * Y
+        j00, j01, j02, j10, j11, j12 = cs, sn, k * qy, -sn, cs, -k * qx
+    else:  # OP_TAPER
+        rate, t0, t1 = p[c], p[c + 1], p[c + 2]
+        s = 1.0 + rate * min(max(Z, t0), t1)
+        qx, qy = X / s, Y / s
+        j00, j11 = 1.0 / s, 1.0 / s
+        if t0 < Z < t1:
+            j02, j12 = -qx * rate / s, -qy * rate / s
+    # back to frame axes: q = Pm^T Q; J = Pm^T Jc Pm, then J_total = J @ J_before
+    nx = p[o] * qx + p[o + 3] * qy + p[o + 6] * Z
+    ny = p[o + 1] * qx + p[o + 4] * qy + p[o + 7] * Z
+    nz = p[o + 2] * qx + p[o + 5] * qy + p[o + 8] * Z
+    if mode == 0:
+        return nx, ny, nz
+    for col in range(3):  # column col of Jc Pm, then of Pm^T (Jc Pm), then times J_before
+        m0, m1, m2 = p[o + col], p[o + 3 + col], p[o + 6 + col]
+        a0 = j00 * m0 + j01 * m1 + j02 * m2
+        a1 = j10 * m0 + j11 * m1 + j12 * m2
+        a2 = m2
+        for r in range(3):
+            ps[pp, 12 + 3 * r + col] = p[o + r] * a0 + p[o + 3 + r] * a1 + p[o + 6 + r] * a2
+    for r in range(3):
+        for col in range(3):
+            acc = 0.0
+            for m in range(3):
+                acc += ps[pp, 12 + 3 * r + m] * ps[pp, 3 + 3 * m + col]
+            ps[pp, 21 + 3 * r + col] = acc
+    for q in range(9):
+        ps[pp, 3 + q] = ps[pp, 21 + q]
+    return nx, ny, nz
+
+
+@njit(cache=True)
+def eval_point(code, params, boxes, x, y, z, mode, vs, ps):
+    """Field at (x, y, z); mode 1 also leaves the gradient in vs[0, 1:4], mode 2 the gradient
+    and the colour in vs[0, 4:7]."""
+    n = code.shape[0]
+    p = params
+    sp = 0
+    pp = 0
+    px, py, pz = x, y, z
+    i = 0
+    while i < n:
+        op = code[i, 0]
+        o = code[i, 1]
+        if op <= OP_CYLINDER:
+            if _outside(boxes, i, px, py, pz):
+                _push_zero(vs, sp, mode)
+                sp += 1
+                i += 1
+                continue
+            qx = p[o] * px + p[o + 1] * py + p[o + 2] * pz + p[o + 3]
+            qy = p[o + 4] * px + p[o + 5] * py + p[o + 6] * pz + p[o + 7]
+            qz = p[o + 8] * px + p[o + 9] * py + p[o + 10] * pz + p[o + 11]
+            s, sx, sy, sz = _prim_s(op, p, o, qx, qy, qz)
+            if s >= 1.0:
+                _push_zero(vs, sp, mode)
+            else:
+                fid = int(p[o + 13])
+                vs[sp, 0] = _fo(fid, s)
+                if mode > 0:
+                    d = _fo_ds(fid, s)
+                    gx, gy, gz = d * sx, d * sy, d * sz
+                    vs[sp, 1] = p[o] * gx + p[o + 4] * gy + p[o + 8] * gz
+                    vs[sp, 2] = p[o + 1] * gx + p[o + 5] * gy + p[o + 9] * gz
+                    vs[sp, 3] = p[o + 2] * gx + p[o + 6] * gy + p[o + 10] * gz
+                    vs[sp, 4] = DEFAULT_GREY
+                    vs[sp, 5] = DEFAULT_GREY
+                    vs[sp, 6] = DEFAULT_GREY
+            sp += 1
+            i += 1
+        elif op == OP_BOX or op == OP_PUSHPT:
+            if _outside(boxes, i, px, py, pz):
+                _push_zero(vs, sp, mode)
+                sp += 1
+                i = code[i, 2]
+                continue
+            if op == OP_PUSHPT:
+                nx = p[o] * px + p[o + 1] * py + p[o + 2] * pz + p[o + 3]
+                ny = p[o + 4] * px + p[o + 5] * py + p[o + 6] * pz + p[o + 7]
+                nz = p[o + 8] * px + p[o + 9] * py + p[o + 10] * pz + p[o + 11]
+                pp += 1
+                ps[pp, 0], ps[pp, 1], ps[pp, 2] = px, py, pz  # the point to restore
+                for r in range(3):
+                    for c in range(3):
+                        ps[pp, 3 + 3 * r + c] = p[o + 4 * r + c]
+                px, py, pz = nx, ny, nz
+            i += 1
+        elif op == OP_BEND or op == OP_TWIST or op == OP_TAPER:
+            if _outside(boxes, i, px, py, pz):
+                _push_zero(vs, sp, mode)
+                sp += 1
+                i = code[i, 2]
+                continue
+            px, py, pz = _warp(op, p, o, px, py, pz, ps, pp, mode)
+            i += 1
+        elif op == OP_POPPT:
+            t = sp - 1
+            if mode > 0:  # gradient back to the outer frame: g <- J^T g
+                gx, gy, gz = vs[t, 1], vs[t, 2], vs[t, 3]
+                vs[t, 1] = ps[pp, 3] * gx + ps[pp, 6] * gy + ps[pp, 9] * gz
+                vs[t, 2] = ps[pp, 4] * gx + ps[pp, 7] * gy + ps[pp, 10] * gz
+                vs[t, 3] = ps[pp, 5] * gx + ps[pp, 8] * gy + ps[pp, 11] * gz
+            px, py, pz = ps[pp, 0], ps[pp, 1], ps[pp, 2]
+            pp -= 1
+            i += 1
+        elif op == OP_COLOR:
+            vs[sp - 1, 4] = p[o]
+            vs[sp - 1, 5] = p[o + 1]
+            vs[sp - 1, 6] = p[o + 2]
+            i += 1
+        else:
+            k = code[i, 3]
+            b = sp - k
+            if op == OP_BLEND:
+                _blend(vs, b, k, mode)
+            elif op == OP_SUPER:
+                _super(vs, b, k, p[o], mode)
+            elif op == OP_CBLEND:
+                _cblend(vs, b, p, o, mode)
+            else:
+                _select(vs, b, k, op, mode)
+            sp = b + 1
+            i += 1
+    return vs[0, 0]
+
+
+@njit(cache=True, inline="always")
+def _blend(vs, b, k, mode):
+    f = vs[b, 0]
+    for m in range(b + 1, b + k):
+        f += vs[m, 0]
+    if mode > 0:
+        g0 = g1 = g2 = 0.0
+        c0 = c1 = c2 = 0.0
+        for m in range(b, b + k):
+            g0 += vs[m, 1]
+            g1 += vs[m, 2]
+            g2 += vs[m, 3]
+            c0 += vs[m, 0] * vs[m, 4]
+            c1 += vs[m, 0] * vs[m, 5]
+            c2 += vs[m, 0] * vs[m, 6]
+        vs[b, 1], vs[b, 2], vs[b, 3] = g0, g1, g2
+        if f > 0.0:
+            vs[b, 4], vs[b, 5], vs[b, 6] = c0 / f, c1 / f, c2 / f
+    vs[b, 0] = f
+
+
+@njit(cache=True, inline="always")
+def _super(vs, b, k, n, mode):
+    m = 0.0
+    for j in range(b, b + k):
+        m = max(m, vs[j, 0])
+    if m <= 0.0:
+        vs[b, 0] = 0.0
+        vs[b, 1] = vs[b, 2] = vs[b, 3] = 0.0
+        return
+    s = 0.0
+    for j in range(b, b + k):
+        s += (vs[j, 0] / m) ** n
+    f = m * s ** (1.0 / n)
+    if mode > 0:
+        g0 = g1 = g2 = 0.0
+        c0 = c1 = c2 = 0.0
+        for j in range(b, b + k):
+            w = (vs[j, 0] / f) ** (n - 1.0)
+            g0 += w * vs[j, 1]
+            g1 += w * vs[j, 2]
+            g2 += w * vs[j, 3]
+            cw = (vs[j, 0] / m) ** n
+            c0 += cw * vs[j, 4]
+            c1 += cw * vs[j, 5]
+            c2 += cw * vs[j, 6]
+        vs[b, 1], vs[b, 2], vs[b, 3] = g0, g1, g2
+        vs[b, 4], vs[b, 5], vs[b, 6] = c0 / s, c1 / s, c2 / s
+    vs[b, 0] = f
+
+
+@njit(cache=True, inline="always")
+def _copy_entry(vs, src, dst, sign):
+    vs[dst, 0] = vs[src, 0] if sign > 0 else 1.0 - vs[src, 0]
+    for c in range(1, 4):
+        vs[dst, c] = sign * vs[src, c]
+    for c in range(4, 7):
+        vs[dst, c] = vs[src, c]
+
+
+@njit(cache=True, inline="always")
+def _select(vs, b, k, op, mode):
+    """Union (max), intersection (min) and difference (min of f_0 and 1 - f_i)."""
+    best = b
+    bf = vs[b, 0]
+    sign = 1.0
+    for j in range(b + 1, b + k):
+        f = vs[j, 0]
+        if op == OP_UNION:
+            if f > bf:
+                best, bf = j, f
+        elif op == OP_INTER:
+            if f < bf:
+                best, bf = j, f
+        else:
+            f = 1.0 - f  # 2 * iso - f_B, iso = 0.5
+            if f < bf:
+                best, bf, sign = j, f, -1.0
+    if best != b:
+        _copy_entry(vs, best, b, sign)
+
+
+@njit(cache=True)
+def _cblend(vs, b, p, o, mode):
+    """Controlled blend (Eq. 6): max over pairs (j, k) of f_j + f_k and over single children."""
+    npairs = int(p[o])
+    nsingle = int(p[o + 1 + 2 * npairs])
+    best_f = -1.0
+    bi = bj = -1
+    for q in range(npairs):
+        j = b + int(p[o + 1 + 2 * q])
+        k = b + int(p[o + 2 + 2 * q])
+        f = vs[j, 0] + vs[k, 0]
+        if f > best_f:
+            best_f, bi, bj = f, j, k
+    for q in range(nsingle):
+        j = b + int(p[o + 2 + 2 * npairs + q])
+        if vs[j, 0] > best_f:
+            best_f, bi, bj = vs[j, 0], j, -1
+    if mode > 0:
+        if bj < 0:
+            g0, g1, g2 = vs[bi, 1], vs[bi, 2], vs[bi, 3]
+            c0, c1, c2 = vs[bi, 4], vs[bi, 5], vs[bi, 6]
+        else:
+            g0, g1, g2 = vs[bi, 1] + vs[bj, 1], vs[bi, 2] + vs[bj, 2], vs[bi, 3] + vs[bj, 3]
+            if best_f > 0.0:
+                wi, wj = vs[bi, 0] / best_f, vs[bj, 0] / best_f
+                c0 = wi * vs[bi, 4] + wj * vs[bj, 4]
+                c1 = wi * vs[bi, 5] + wj * vs[bj, 5]
+                c2 = wi * vs[bi, 6] + wj * vs[bj, 6]
+            else:
+                c0, c1, c2 = vs[bi, 4], vs[bi, 5], vs[bi, 6]
+        vs[b, 1], vs[b, 2], vs[b, 3] = g0, g1, g2
+        vs[b, 4], vs[b, 5], vs[b, 6] = c0, c1, c2
+    vs[b, 0] = best_f
+
+
+@njit(cache=True, inline="always")
+def _misses(boxes, i, lox, loy, loz, hix, hiy, hiz):
+    return (hix < boxes[i, 0] or hiy < boxes[i, 1] or hiz < boxes[i, 2]
+            or lox > boxes[i, 3] or loy > boxes[i, 4] or loz > boxes[i, 5])
+
+
+@njit(cache=True)
+def lipschitz_box(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, vs):
+    """A bound on |grad f| over the box [lo, hi] (world coordinates): the tree's Lipschitz rules
+    (sum at blends, max at CSG) over only the primitives whose boxes meet it."""
+    n = code.shape[0]
+    sp = 0
+    i = 0
+    while i < n:
+        op = code[i, 0]
+        if op <= OP_CYLINDER or op == OP_PUSHPT:
+            vs[sp, 0] = 0.0 if _misses(boxes, i, lox, loy, loz, hix, hiy, hiz) else lips[i]
+            sp += 1
+            i = i + 1 if op != OP_PUSHPT else code[i, 2]
+        elif op == OP_BOX:
+            if _misses(boxes, i, lox, loy, loz, hix, hiy, hiz):
+                vs[sp, 0] = 0.0
+                sp += 1
+                i = code[i, 2]
+            else:
+                i += 1
+        elif op == OP_COLOR:
+            i += 1
+        else:
+            k = code[i, 3]
+            b = sp - k
+            acc = 0.0
+            for j in range(b, sp):
+                if op == OP_BLEND or op == OP_SUPER or op == OP_CBLEND:
+                    acc += vs[j, 0]
+                else:
+                    acc = max(acc, vs[j, 0])
+            vs[b, 0] = acc
+            sp = b + 1
+            i += 1
+    return vs[0, 0]
+
+
+CHUNK = 512
+
+
+@njit(parallel=True, cache=True)
+def eval_batch(code, params, boxes, P, mode, depth, out_f, out_g, out_c):
+    """Evaluate (N, 3) points in parallel chunks; fills out_f and, by mode, out_g / out_c."""
+    n = P.shape[0]
+    nchunks = (n + CHUNK - 1) // CHUNK
+    for ch in prange(nchunks):
+        vs, ps = scratch(depth)
+        for m in range(ch * CHUNK, min(n, (ch + 1) * CHUNK)):
+            out_f[m] = eval_point(code, params, boxes, P[m, 0], P[m, 1], P[m, 2], mode, vs, ps)
+            if mode > 0:
+                out_g[m, 0], out_g[m, 1], out_g[m, 2] = vs[0, 1], vs[0, 2], vs[0, 3]
+            if mode > 1:
+                out_c[m, 0], out_c[m, 1], out_c[m, 2] = vs[0, 4], vs[0, 5], vs[0, 6]
+
+
+@njit(parallel=True, cache=True)
+def lipschitz_batch(code, params, boxes, lips, lo, hi, depth, out):
+    """``lipschitz_box`` for many boxes in parallel."""
+    n = lo.shape[0]
+    nchunks = (n + CHUNK - 1) // CHUNK
+    for ch in prange(nchunks):
+        vs, _ = scratch(depth)
+        for m in range(ch * CHUNK, min(n, (ch + 1) * CHUNK)):
+            out[m] = lipschitz_box(code, params, boxes, lips, lo[m, 0], lo[m, 1], lo[m, 2],
+                                   hi[m, 0], hi[m, 1], hi[m, 2], vs)

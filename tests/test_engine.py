@@ -1,0 +1,116 @@
+"""The compiled engine against the numpy reference evaluator, finite differences and bounds."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import blobtree as bt
+from tests.trees import sample_points, trees
+
+SETTINGS = settings(max_examples=60, deadline=None,
+                    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+
+
+@SETTINGS
+@given(trees(), st.integers(0, 2**31))
+def test_engine_equals_reference(tree, seed):
+    P = sample_points(tree, 400, seed)
+    f, g, c = tree.program().evaluate(P)
+    fr, gr, cr = tree.reference(P)
+    scale = max(1.0, np.abs(gr).max())
+    np.testing.assert_allclose(f, fr, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(g, gr, rtol=1e-9, atol=1e-9 * scale)
+    live = fr > 1e-9
+    np.testing.assert_allclose(c[live], cr[live], rtol=1e-9, atol=1e-9)
+    assert np.all((f >= 0.0) & (f <= 1.0 + 1e-12)) or not _is_sum_free(tree)
+
+
+def _is_sum_free(tree: bt.Node) -> bool:
+    """Trees without blends stay in [0, 1]; sums may exceed 1."""
+    return not any(isinstance(n, bt.Blend | bt.SuperBlend | bt.ControlledBlend)
+                   for n in tree.walk())
+
+
+@SETTINGS
+@given(trees(smooth_only=True), st.integers(0, 2**31))
+def test_gradient_matches_finite_differences(tree, seed):
+    P = sample_points(tree, 300, seed, grow=0.0)
+    g = tree.gradient(P)
+
+    def fd(h):
+        out = np.empty_like(P)
+        for k in range(3):
+            e = np.zeros(3)
+            e[k] = h
+            out[:, k] = (tree.field(P + e) - tree.field(P - e)) / (2 * h)
+        return out
+
+    g1, g2 = fd(1e-5), fd(5e-6)
+    # where two step sizes agree the field is smooth there (no clamp or box edge in reach)
+    smooth = np.all(np.abs(g1 - g2) <= 1e-5 * (1 + np.abs(g1)), axis=1)
+    assert smooth.mean() > 0.5
+    np.testing.assert_allclose(g[smooth], g2[smooth], rtol=1e-4, atol=1e-4)
+
+
+@SETTINGS
+@given(trees(), st.integers(0, 2**31))
+def test_bounds_contain_support(tree, seed):
+    P = sample_points(tree, 2000, seed, grow=0.5)
+    lo, hi = tree.bounds()
+    f = tree.reference(P)[0]
+    inside = np.all((P >= lo - 1e-9) & (P <= hi + 1e-9), axis=1)
+    assert not np.any((f > 0) & ~inside)
+
+
+@SETTINGS
+@given(trees(max_leaves=3), st.integers(0, 2**31))
+def test_warp_boxes_contain_the_deformed_child(tree, seed):
+    """A warp's box is computed from the forward deformation; check it against the child's own
+    (unmasked) field at the warped query points."""
+    for w in (n for n in tree.walk() if isinstance(n, bt.nodes.Warp)):
+        lo, hi = w.own_box
+        pad = 0.5 * (hi - lo) + 1e-3
+        P = np.random.default_rng(seed).uniform(lo - pad, hi + pad, (3000, 3))
+        q, _ = w.warp_points(P)
+        f = w.child.reference(q)[0]
+        inside = np.all((P >= lo - 1e-9) & (P <= hi + 1e-9), axis=1)
+        if isinstance(w, bt.nodes.Bend):  # the bend's query map folds far behind its centre
+            c = np.zeros(3)
+            c[w.index[1]] = w.sign / w.k
+            near = np.linalg.norm(P - c, axis=1) < 2.0 / w.k
+            f = np.where(near, f, 0.0)
+        assert not np.any((f > 0) & ~inside)
+
+
+def test_whorl126_engine_matches_reference_everywhere():
+    tree = bt.models.whorl126()
+    P = sample_points(tree, 5000, 3)
+    f, g, _ = tree.program().evaluate(P)
+    fr, gr, _ = tree.reference(P)
+    np.testing.assert_allclose(f, fr, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(g, gr, rtol=1e-9, atol=1e-9)
+
+
+def test_lipschitz_bounds_the_gradient():
+    tree = (bt.Point(radius=1.0) + bt.Cone((0, 0, 0), (2, 0, 0), 0.6, 0.2).bend(40, 2.0)
+            - bt.Point(radius=0.5, center=(0.3, 0.2, 0)))
+    prog = tree.program()
+    P = sample_points(tree, 20000, 5)
+    gn = np.linalg.norm(tree.gradient(P), axis=1)
+    assert gn.max() <= prog.lipschitz_global
+    lo, hi = prog.bounds
+    cells = np.random.default_rng(2).uniform(lo, hi, (200, 3))
+    size = 0.2 * (hi - lo)
+    local = prog.lipschitz(cells, cells + size)
+    for c, lip in zip(cells, local, strict=True):
+        Q = np.random.default_rng(0).uniform(c, c + size, (500, 3))
+        assert np.linalg.norm(tree.gradient(Q), axis=1).max() <= lip + 1e-12
+
+
+def test_engine_skips_far_subtrees():
+    """Points far from every box evaluate to exactly 0."""
+    tree = bt.models.whorl126()
+    P = np.array([[100.0, 0, 0], [0, -50, 0]])
+    assert np.all(tree.field(P) == 0.0)

@@ -1,0 +1,95 @@
+"""Scene files: exact round trips and errors that name the JSON path."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import blobtree as bt
+from blobtree.io import SceneError, dumps, loads
+from tests.trees import sample_points, trees
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(trees(), st.integers(0, 2**31))
+def test_round_trip_is_exact(tree, seed):
+    text = dumps(tree)
+    back = loads(text)
+    assert dumps(back) == text
+    P = sample_points(tree, 200, seed)
+    np.testing.assert_array_equal(back.field(P), tree.field(P))
+
+
+def test_every_node_type_round_trips(tmp_path):
+    a = bt.Point(radius=1.0, falloff="cubic")
+    parts = [
+        a, bt.Segment((0, 0, 0), (1, 0, 0), 0.5), bt.Cone((0, 0, 0), (1, 0, 0), 0.5, 0.2),
+        bt.Torus(1.0, 0.3), bt.Disc(1.0, 0.3), bt.Cylinder((0, 0, 0), (0, 1, 0), 0.3, 0.2),
+    ]
+    tree = bt.union(
+        bt.blend(*parts), bt.super_blend(a, a.translate(1, 0, 0), n=400),
+        bt.intersection(a, a.scale(2)), bt.difference(a.scale(1, 2, 3), a),
+        bt.controlled_blend([a, a, a], pairs=[(0, 1), (1, 2)]),
+        a.rotate("x", 30).rotate((1, 1, 0), 12.5), parts[2].bend(30, 1.0).twist(20).taper(0.1),
+        a.color((0.1, 0.2, 0.3)),
+    )
+    assert {n.TYPE for n in tree.walk()} == set(bt.nodes.NODE_TYPES)
+    path = tmp_path / "scene.json"
+    bt.save(tree, path)
+    back = bt.load(path)
+    assert dumps(back) == dumps(tree)
+
+
+def _doc(root):
+    return json.dumps({"format": "blobtree-scene", "version": 1, "root": root})
+
+
+@pytest.mark.parametrize("text, where", [
+    ("{not json", "$: not valid JSON"),
+    (json.dumps({"format": "blobtree-scene", "version": 99, "root": {}}), "$.version"),
+    (json.dumps({"format": "other", "version": 1}), "$.format"),
+    (_doc({"type": "sphere"}), "$.root.type"),
+    (_doc({"type": "blend", "children": [{"type": "point", "params": {"center": [0, 0, 0],
+          "falloff": "soft_object"}}]}), "$.root.children[0].params.radius"),
+    (_doc({"type": "point", "params": {"center": [0, 0], "radius": 1,
+          "falloff": "soft_object"}}), "$.root.params.center"),
+    (_doc({"type": "point", "params": {"center": [0, 0, 0], "radius": "1",
+          "falloff": "soft_object"}}), "$.root.params.radius"),
+    (_doc({"type": "point", "params": {"center": [0, 0, 0], "radius": -1,
+          "falloff": "soft_object"}}), "$.root: radius"),
+    ('{"format": "blobtree-scene", "version": 1, "root": {"type": "point", "params": '
+     '{"center": [NaN, 0, 0], "radius": 1, "falloff": "soft_object"}}}', "NaN"),
+    (_doc({"type": "translate", "params": {"offset": [0, 0, 0]}, "children": []}),
+     "$.root.children"),
+    (_doc({"type": "point", "params": {"center": [0, 0, 0], "radius": 1,
+          "falloff": "soft_object", "code": "import os"}}), "$.root.params.code"),
+])
+def test_malformed_files_name_the_path(text, where):
+    with pytest.raises(SceneError) as e:
+        loads(text)
+    assert where in str(e.value)
+
+
+def test_save_is_atomic(tmp_path, monkeypatch):
+    path = tmp_path / "scene.json"
+    path.write_text("old")
+
+    def boom(*a, **k):
+        raise RuntimeError("disk full")
+
+    monkeypatch.setattr("blobtree.io.dumps", boom)
+    with pytest.raises(RuntimeError):
+        bt.save(bt.Point(), path)
+    assert path.read_text() == "old"
+    assert [p.name for p in tmp_path.iterdir()] == ["scene.json"]
+
+
+def test_load_never_executes_code(tmp_path):
+    path = tmp_path / "evil.json"
+    path.write_text(_doc({"type": "__import__('os').system('touch x')"}))
+    with pytest.raises(SceneError, match="unknown node type"):
+        bt.load(path)
