@@ -10,13 +10,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from numba import njit, prange
 
 from .. import kernels
 from .camera import Camera, as_color
 from .shade import Light, linear_to_srgb_byte, pack_lights, shade, srgb_to_linear
-from .trace import clip_box, trace
+from .trace import clip_box, march_cone, trace
 
 #: Largest image side accepted (a 16384^2 image is 805 MB of RGB).
 MAX_SIDE = 16384
@@ -26,6 +27,8 @@ MAX_SAMPLES = 1024
 EPS_SCENE = 1e-6
 #: Shadow-ray start offset along the normal, as a fraction of the scene's diagonal.
 SHADOW_OFFSET = 1e-4
+#: Side in pixels of the cones marched before single rays (see ``_render_rect``).
+BLOCK, SUB = 16, 4
 
 
 @dataclass(frozen=True)
@@ -90,7 +93,7 @@ def trace_rect(prog, cam: np.ndarray, lights: np.ndarray, settings: RenderSettin
     return _render_rect(code, params, boxes, lips, prog.depth, cam, lights, lo, hi,
                         s.width, s.height, s.samples, s.shadows, np.array(s.background),
                         s.ambient, s.specular, s.shininess, EPS_SCENE * diag,
-                        SHADOW_OFFSET * diag, s.seed, x0, y0, x1, y1)
+                        SHADOW_OFFSET * diag, s.seed, x0, y0, x1, y1, numba.get_num_threads())
 
 
 @njit(cache=True)
@@ -113,75 +116,134 @@ def _uniform(seed, x, y, s, k):
     return h / 4294967296.0
 
 
+@njit(cache=True)
+def _ray(cam, width, height, x, y):
+    """Unit direction of the camera ray through image point (x, y) (in pixels)."""
+    sx = 2.0 * x / width - 1.0
+    sy = 1.0 - 2.0 * y / height
+    dx = cam[3] + sx * cam[6] + sy * cam[9]
+    dy = cam[4] + sx * cam[7] + sy * cam[10]
+    dz = cam[5] + sx * cam[8] + sy * cam[11]
+    n = np.sqrt(dx * dx + dy * dy + dz * dz)
+    return dx / n, dy / n, dz / n
+
+
+@njit(cache=True)
+def _block_start(code, params, boxes, lips, cam, width, height, bx0, by0, bx1, by1, t, t_far,
+                 vstack, pstack):
+    """A depth before which no ray through pixels [bx0, bx1) x [by0, by1) meets the surface
+    (:func:`march_cone` on the cone around them), inf if none of them does."""
+    ax, ay, az = _ray(cam, width, height, 0.5 * (bx0 + bx1), 0.5 * (by0 + by1))
+    tan_a = 0.0
+    for cx in (bx0, bx1):
+        for cy in (by0, by1):
+            dx, dy, dz = _ray(cam, width, height, cx, cy)
+            c = dx * ax + dy * ay + dz * az
+            tan_a = max(tan_a, np.sqrt(max(1.0 - c * c, 0.0)) / c)
+    return march_cone(code, params, boxes, lips, cam[0], cam[1], cam[2], ax, ay, az,
+                      tan_a * 1.000001, t, t_far, vstack, pstack)
+
+
+@njit(cache=True)
+def _pixel(code, params, boxes, lips, cam, lights, lo, hi, width, height, samples, shadows, bg,
+           bg_bytes, ambient, specular, shininess, eps_abs, eps_rel, shadow_eps, seed, px, py,
+           t_start, out, iy, ix, rgb, vstack, pstack):
+    """Trace and shade pixel (px, py) with every ray starting at depth t_start; write its sRGB
+    bytes into out[iy, ix]."""
+    if t_start == np.inf:
+        for c in range(3):
+            out[iy, ix, c] = bg_bytes[c]
+        return
+    m = int(np.ceil(np.sqrt(samples)))
+    rows = (samples + m - 1) // m
+    acc_r = acc_g = acc_b = 0.0
+    hits = 0
+    for s in range(samples):
+        if samples == 1:
+            u = 0.5
+            v = 0.5
+        else:
+            u = (s % m + _uniform(seed, px, py, s, 0)) / m
+            v = (s // m + _uniform(seed, px, py, s, 1)) / rows
+        dx, dy, dz = _ray(cam, width, height, px + u, py + v)
+        t0, t1 = clip_box(cam[0], cam[1], cam[2], dx, dy, dz, lo, hi, t_start, np.inf)
+        t = -1.0
+        if t0 <= t1:
+            t = trace(code, params, boxes, lips, cam[0], cam[1], cam[2], dx, dy, dz, t0, t1,
+                      eps_abs, eps_rel, 0.05 * (t1 - t0) + eps_abs, vstack, pstack)
+        if t < 0.0:
+            acc_r += bg[0]
+            acc_g += bg[1]
+            acc_b += bg[2]
+            continue
+        hits += 1
+        shade(code, params, boxes, lips, cam[0] + t * dx, cam[1] + t * dy, cam[2] + t * dz,
+              dx, dy, dz, lights, lo, hi, shadows, ambient, specular, shininess, shadow_eps,
+              rgb, vstack, pstack)
+        acc_r += rgb[0]
+        acc_g += rgb[1]
+        acc_b += rgb[2]
+    if hits == 0:
+        for c in range(3):
+            out[iy, ix, c] = bg_bytes[c]
+    else:
+        out[iy, ix, 0] = linear_to_srgb_byte(acc_r / samples)
+        out[iy, ix, 1] = linear_to_srgb_byte(acc_g / samples)
+        out[iy, ix, 2] = linear_to_srgb_byte(acc_b / samples)
+
+
 @njit(cache=True, parallel=True)
 def _render_rect(code, params, boxes, lips, depth, cam, lights, lo, hi, width, height, samples,
                  shadows, background, ambient, specular, shininess, eps_abs, shadow_eps, seed,
-                 x0, y0, x1, y1):
-    w = x1 - x0
-    h = y1 - y0
-    npix = w * h
-    out = np.empty((h, w, 3), dtype=np.uint8)
+                 x0, y0, x1, y1, nthreads):
+    """Pixels [x0, x1) x [y0, y1): blocks of BLOCK^2 pixels in parallel, each first marched as
+    one cone, then as cones of SUB^2 pixels, then ray by ray from where its cones stopped."""
+    out = np.empty((y1 - y0, x1 - x0, 3), dtype=np.uint8)
     bg = np.empty(3)
     bg_bytes = np.empty(3, dtype=np.uint8)
     for c in range(3):
         bg[c] = srgb_to_linear(background[c])
         bg_bytes[c] = np.uint8(int(background[c] * 255.0 + 0.5))
-    # Quarter of a pixel's angular size: camera rays may skip features thinner than that.
+    # Camera rays may skip features thinner than a quarter of a pixel's footprint.
     eps_rel = 0.5 * np.sqrt(cam[9] ** 2 + cam[10] ** 2 + cam[11] ** 2) / height
-    m = int(np.ceil(np.sqrt(samples)))
-    rows = (samples + m - 1) // m
-    # Interleave pixels over chunks so each thread gets a fair share of the busy ones.
-    nchunks = min(npix, 256)
-    for ch in prange(nchunks):
+    # No ray meets the surface before reaching the bounds box, nor after its farthest corner.
+    t_near = 0.0
+    t_far = 0.0
+    for k in range(3):
+        e = cam[k]
+        g = max(lo[k] - e, 0.0, e - hi[k])
+        t_near += g * g
+        t_far += max(abs(e - lo[k]), abs(e - hi[k])) ** 2
+    t_near = np.sqrt(t_near)
+    t_far = np.sqrt(t_far)
+    nbx = (x1 - x0 + BLOCK - 1) // BLOCK
+    nby = (y1 - y0 + BLOCK - 1) // BLOCK
+    nb = nbx * nby
+    # prange hands each thread a contiguous run of k: deal blocks round-robin instead, so every
+    # thread gets blocks from all over the rectangle.
+    order = np.argsort(np.arange(nb) % nthreads, kind="mergesort")
+    for k in prange(nb):
+        b = order[k]
+        bx0 = x0 + (b % nbx) * BLOCK
+        by0 = y0 + (b // nbx) * BLOCK
+        bx1 = min(bx0 + BLOCK, x1)
+        by1 = min(by0 + BLOCK, y1)
         vstack, pstack = kernels.scratch(depth)
         rgb = np.empty(3)
-        for p in range(ch, npix, nchunks):
-            px = x0 + p % w
-            py = y0 + p // w
-            acc_r = acc_g = acc_b = 0.0
-            hits = 0
-            for s in range(samples):
-                if samples == 1:
-                    u = 0.5
-                    v = 0.5
-                else:
-                    u = (s % m + _uniform(seed, px, py, s, 0)) / m
-                    v = (s // m + _uniform(seed, px, py, s, 1)) / rows
-                sx = 2.0 * (px + u) / width - 1.0
-                sy = 1.0 - 2.0 * (py + v) / height
-                dx = cam[3] + sx * cam[6] + sy * cam[9]
-                dy = cam[4] + sx * cam[7] + sy * cam[10]
-                dz = cam[5] + sx * cam[8] + sy * cam[11]
-                n = np.sqrt(dx * dx + dy * dy + dz * dz)
-                dx /= n
-                dy /= n
-                dz /= n
-                t0, t1 = clip_box(cam[0], cam[1], cam[2], dx, dy, dz, lo, hi, 0.0, np.inf)
-                t = -1.0
-                if t0 <= t1:
-                    t = trace(code, params, boxes, lips, cam[0], cam[1], cam[2], dx, dy, dz,
-                              t0, t1, eps_abs, eps_rel, 0.05 * (t1 - t0) + eps_abs,
-                              vstack, pstack)
-                if t < 0.0:
-                    acc_r += bg[0]
-                    acc_g += bg[1]
-                    acc_b += bg[2]
-                    continue
-                hits += 1
-                shade(code, params, boxes, lips, cam[0] + t * dx, cam[1] + t * dy,
-                      cam[2] + t * dz, dx, dy, dz, lights, lo, hi, shadows, ambient, specular,
-                      shininess, shadow_eps, rgb, vstack, pstack)
-                acc_r += rgb[0]
-                acc_g += rgb[1]
-                acc_b += rgb[2]
-            iy = p // w
-            ix = p % w
-            if hits == 0:
-                out[iy, ix, 0] = bg_bytes[0]
-                out[iy, ix, 1] = bg_bytes[1]
-                out[iy, ix, 2] = bg_bytes[2]
-            else:
-                out[iy, ix, 0] = linear_to_srgb_byte(acc_r / samples)
-                out[iy, ix, 1] = linear_to_srgb_byte(acc_g / samples)
-                out[iy, ix, 2] = linear_to_srgb_byte(acc_b / samples)
+        tb = _block_start(code, params, boxes, lips, cam, width, height, bx0, by0, bx1, by1,
+                          t_near, t_far, vstack, pstack)
+        for sy0 in range(by0, by1, SUB):
+            for sx0 in range(bx0, bx1, SUB):
+                sx1 = min(sx0 + SUB, bx1)
+                sy1 = min(sy0 + SUB, by1)
+                ts = tb
+                if tb < np.inf:
+                    ts = _block_start(code, params, boxes, lips, cam, width, height, sx0, sy0,
+                                      sx1, sy1, tb, t_far, vstack, pstack)
+                for py in range(sy0, sy1):
+                    for px in range(sx0, sx1):
+                        _pixel(code, params, boxes, lips, cam, lights, lo, hi, width, height,
+                               samples, shadows, bg, bg_bytes, ambient, specular, shininess,
+                               eps_abs, eps_rel, shadow_eps, seed, px, py, ts,
+                               out, py - y0, px - x0, rgb, vstack, pstack)
     return out

@@ -25,8 +25,8 @@ ISO = 0.5
 GROWTH = 1.5
 #: Regula-falsi iterations after a bracket is found (the bracket shrinks superlinearly).
 REFINE_ITERS = 24
-#: Relative width (of the start bracket) at which refinement stops.
-REFINE_TOL = 1e-10
+#: Refinement stops at a bracket this fraction of the smallest step.
+REFINE_TOL = 1e-3
 
 
 @njit(cache=True)
@@ -52,9 +52,8 @@ def clip_box(ox, oy, oz, dx, dy, dz, lo, hi, tmin, tmax):
 
 
 @njit(cache=True)
-def _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, ta, fa, tb, fb, vstack, pstack):
-    """Root of f - ISO in [ta, tb] with fa < 0 <= fb (Illinois regula falsi)."""
-    tol = (tb - ta) * REFINE_TOL
+def _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, ta, fa, tb, fb, tol, vstack, pstack):
+    """Root of f - ISO in [ta, tb] with fa < 0 <= fb, to within tol (Illinois regula falsi)."""
     side = 0
     for _ in range(REFINE_ITERS):
         if tb - ta <= tol:
@@ -104,7 +103,8 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
         step = te - t
         if lam > 0.0:
             step = min(step, -f / lam)
-        step = max(step, eps_abs + eps_rel * t)
+        eps = eps_abs + eps_rel * t
+        step = max(step, eps)
         tn = t + step
         if tn > t1:
             tn = t1
@@ -112,13 +112,50 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
                                 vstack, pstack) - ISO
         if fn >= 0.0:
             return _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, t, f, tn, fn,
-                           vstack, pstack)
+                           REFINE_TOL * eps, vstack, pstack)
         if tn >= t1:
             break
         t = tn
         f = fn
         delta = GROWTH * step
     return -1.0
+
+
+@njit(cache=True)
+def march_cone(code, params, boxes, lips, ex, ey, ez, ax, ay, az, tan_a, t, t1, vstack, pstack):
+    """Segment tracing for a whole cone of rays (apex at the eye, unit axis a, half-angle
+    atan(tan_a)): the largest axis depth reached with the cone proven free of surface, or inf if
+    the cone gets past t1 untouched.
+
+    Over the candidate segment [t, te] the cone lies in the axis segment's box grown by
+    te * tan_a, where the field is L-Lipschitz; a point of the cone at depth t' is within
+    (t' - t) + t' tan_a of the axis point at t, so depths up to t + step are free while
+    f(t) + L (step + (t + step) tan_a) < ISO.  Every ray in the cone may start at the returned
+    depth (its own parameter is never less than its axis depth).
+    """
+    delta = 0.05 * (t1 - t) + 1e-12
+    f = 0.0
+    have_f = False  # the field at the current axis point is evaluated only when needed
+    while t < t1:
+        te = min(t + delta, t1)
+        r = te * tan_a
+        px, py, pz = ex + t * ax, ey + t * ay, ez + t * az
+        qx, qy, qz = ex + te * ax, ey + te * ay, ez + te * az
+        lam = kernels.lipschitz_box(code, params, boxes, lips, min(px, qx) - r, min(py, qy) - r,
+                                    min(pz, qz) - r, max(px, qx) + r, max(py, qy) + r,
+                                    max(pz, qz) + r, vstack)
+        step = te - t
+        if lam > 0.0:
+            if not have_f:
+                f = kernels.eval_point(code, params, boxes, px, py, pz, 0, vstack, pstack) - ISO
+                have_f = True
+            step = min(step, (-f / lam - t * tan_a) / (1.0 + tan_a))
+            if step < 0.25 * t * tan_a:
+                return t
+        t += step
+        have_f = False
+        delta = GROWTH * step
+    return np.inf
 
 
 @njit(cache=True, parallel=True)
