@@ -131,8 +131,18 @@ def test_lambert_shading_is_gamma_encoded():
     light = [Light(direction=(0.0, 0.0, -1.0))]  # shines along the view: n.l = 1 at the centre
     img = render(tree, 33, 33, camera=cam, lights=light, background=BLACK, ambient=0.0,
                  specular=0.0)
-    # linear 0.8 -> sRGB: 1.055 * 0.8^(1/2.4) - 0.055 = 0.9063 -> 231
-    assert tuple(img[16, 16]) == (231, 231, 231)
+    # The albedo is an sRGB colour: lit head-on, the pixel shows it exactly (0.8 -> 204).
+    assert tuple(img[16, 16]) == (204, 204, 204)
+    # Off centre, Lambert's n.l scales the *linear* albedo, then the result is sRGB-encoded.
+    px = 26
+    half = np.tan(np.radians(20.0))
+    d = np.array([[(2 * (px + 0.5) / 33 - 1) * half, 0.0, -1.0]])
+    t = intersect(tree, np.array([[0.0, 0.0, 4.0]]), d)[0]
+    p = np.array([0.0, 0.0, 4.0]) + t * d[0]
+    ndl = p[2] / np.linalg.norm(p)
+    lin = ((0.8 + 0.055) / 1.055) ** 2.4 * ndl
+    expected = round(255 * (1.055 * lin ** (1 / 2.4) - 0.055))
+    assert abs(int(img[16, px, 0]) - expected) <= 1
     side = [Light(direction=(1.0, 0.0, 0.0))]  # shines toward +x: only the -x half is lit
     img = render(tree, 33, 33, camera=cam, lights=side, background=BLACK, ambient=0.0,
                  specular=0.0).astype(int)
