@@ -23,7 +23,13 @@ import numpy as np
 from . import geometry as geo
 from . import kernels as K
 from . import nodes as N
+from . import specialize as S
 from .fields import FALLOFFS
+
+#: Batches at least this large are sorted into cells that run specialised programs.
+BINNED_MIN = 20_000
+BIN_POINTS = 2_000
+BIN_MAX = 32
 
 #: Children per leaf group of the bounding-volume hierarchy built over associative operators.
 GROUP = 4
@@ -59,7 +65,15 @@ class Program:
         f = np.empty(n)
         g = np.empty((n, 3)) if mode > 0 else np.empty((0, 3))
         c = np.empty((n, 3)) if mode > 1 else np.empty((0, 3))
-        K.eval_batch(self.code, self.params, self.boxes, P, mode, self.depth, f, g, c)
+        lo, hi = self.bounds
+        if n >= BINNED_MIN and np.all(np.isfinite(lo)) and np.all(hi > lo):
+            # about BIN_POINTS points per cell, at most BIN_MAX cells a side
+            side = int(np.clip(round((n / BIN_POINTS) ** (1 / 3)), 1, BIN_MAX))
+            dims = np.full(3, side, dtype=np.int64)
+            S.eval_binned(self.code, self.params, self.boxes, self.lips, P, mode, self.depth,
+                          lo, hi, dims, f, g, c)
+        else:
+            K.eval_batch(self.code, self.params, self.boxes, P, mode, self.depth, f, g, c)
         return f, g, c
 
     def field(self, P: np.ndarray) -> np.ndarray:
@@ -116,8 +130,10 @@ class _Emitter:
         if isinstance(node, N.Primitive):
             return self.primitive(node, M)
         if isinstance(node, N.Color):
+            head = self.add(K.OP_BOX)
             box = self.emit(node.child, M)
             self.add(K.OP_COLOR, node.rgb)
+            self.close(head, box)
             return box
         if isinstance(node, N.Warp):
             return self.warp(node, M)

@@ -21,6 +21,7 @@ from .fields import SLOPE_BY_ID, falloff, falloff_ds
 OP_POINT, OP_CONE, OP_TORUS, OP_DISC, OP_CYLINDER = 0, 1, 2, 3, 4
 OP_BOX, OP_BLEND, OP_SUPER, OP_UNION, OP_INTER, OP_DIFF, OP_CBLEND = 5, 6, 7, 8, 9, 10, 11
 OP_PUSHPT, OP_BEND, OP_TWIST, OP_TAPER, OP_POPPT, OP_COLOR = 12, 13, 14, 15, 16, 17
+OP_ZERO = 18  # pushes 0: a subtree removed by specialisation (specialize.py)
 
 #: Size of the common primitive header in params: 3x4 frame->local map, R, falloff id.
 PRIM_HEADER = 14
@@ -254,6 +255,10 @@ def eval_point(code, params, boxes, x, y, z, mode, vs, ps):
             vs[sp - 1, 5] = p[o + 1]
             vs[sp - 1, 6] = p[o + 2]
             i += 1
+        elif op == OP_ZERO:
+            _push_zero(vs, sp, mode)
+            sp += 1
+            i += 1
         else:
             k = code[i, 3]
             b = sp - k
@@ -350,6 +355,9 @@ def _select(vs, b, k, op, mode):
                 best, bf, sign = j, f, -1.0
     if best != b:
         _copy_entry(vs, best, b, sign)
+    if vs[b, 0] < 0.0:  # difference with a subtrahend above 1: clamp to 0 (as nodes.py)
+        vs[b, 0] = 0.0
+        vs[b, 1] = vs[b, 2] = vs[b, 3] = 0.0
 
 
 @njit(cache=True)
@@ -469,6 +477,10 @@ def lipschitz_box(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, vs):
             else:
                 i += 1
         elif op == OP_COLOR:
+            i += 1
+        elif op == OP_ZERO:
+            vs[sp, 0] = 0.0
+            sp += 1
             i += 1
         else:
             k = code[i, 3]

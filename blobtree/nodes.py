@@ -562,7 +562,7 @@ class Intersection(Operator):
 
 
 class Difference(Operator):
-    """B_1 - B_2 - ...: min(f_1, 2*0.5 - f_2, ...); the box is B_1's."""
+    """B_1 - B_2 - ...: max(0, min(f_1, 2*0.5 - f_2, ...)); the box is B_1's."""
 
     TYPE = "difference"
     MIN_CHILDREN = 2
@@ -572,7 +572,11 @@ class Difference(Operator):
         f = np.concatenate([f[:1], 2.0 * ISO - f[1:]])
         g = np.concatenate([g[:1], -g[1:]])
         i = np.argmin(f, axis=0)
-        return f.min(axis=0), _pick(i, g), _pick(i, c)
+        value = f.min(axis=0)
+        # a subtrahend whose field exceeds 1 (a blend) would push the result below 0: clamp,
+        # so the field stays in [0, 1] and is 0 outside the first child's box
+        neg = (value < 0.0)[:, None]
+        return np.maximum(value, 0.0), np.where(neg, 0.0, _pick(i, g)), _pick(i, c)
 
     def combine_boxes(self, boxes):
         return boxes[0]

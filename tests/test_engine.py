@@ -114,3 +114,31 @@ def test_engine_skips_far_subtrees():
     tree = bt.models.whorl126()
     P = np.array([[100.0, 0, 0], [0, -50, 0]])
     assert np.all(tree.field(P) == 0.0)
+
+
+@settings(max_examples=15, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+@given(trees(), st.integers(0, 2**31))
+def test_specialised_cells_equal_reference(tree, seed):
+    """Large batches run per-cell specialised programs (specialize.py): still exact."""
+    from blobtree.compile import BINNED_MIN
+
+    P = sample_points(tree, BINNED_MIN + 5000, seed)
+    f, g, c = tree.program().evaluate(P)
+    fr, gr, cr = tree.reference(P)
+    np.testing.assert_allclose(f, fr, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(g, gr, rtol=1e-9, atol=1e-9 * max(1.0, np.abs(gr).max()))
+    live = fr > 1e-9
+    np.testing.assert_allclose(c[live], cr[live], rtol=1e-9, atol=1e-9)
+
+
+def test_specialised_program_is_short_for_a_small_cell():
+    from blobtree import specialize as S
+
+    prog = bt.models.whorl126().program()
+    n = len(prog)
+    oc, ob, ol = np.empty((n, 4), dtype=np.int64), np.empty((n, 6)), np.empty(n)
+    lo, hi = prog.bounds
+    c = 0.5 * (lo + hi) + np.array([0.9, 0.0, 0.0])
+    m = S.specialize(prog.code, prog.boxes, prog.lips, c - 0.05, c + 0.05, oc, ob, ol)
+    assert 0 < m < n // 10

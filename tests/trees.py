@@ -119,5 +119,7 @@ def trees(smooth_only: bool = False, max_leaves: int = 8):
 def sample_points(tree: bt.Node, n: int, seed: int, grow: float = 0.2) -> np.ndarray:
     """Uniform points in the tree's bounds, grown by a fraction on every side."""
     lo, hi = tree.bounds()
+    if np.any(lo > hi):  # empty support (e.g. a disjoint intersection): sample around it
+        lo, hi = np.full(3, -2.0), np.full(3, 2.0)
     pad = grow * (hi - lo) + 1e-3
     return np.random.default_rng(seed).uniform(lo - pad, hi + pad, (n, 3))

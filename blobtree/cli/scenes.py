@@ -12,7 +12,11 @@ from ..io import SceneError, load
 from ..nodes import Node
 
 #: Built-in models by name: each a function of no arguments returning a tree.
-BUILTIN: dict[str, Callable[[], Node]] = {"whorl126": models.whorl126}
+BUILTIN: dict[str, Callable[[], Node]] = {
+    "whorl126": models.whorl126,
+    "murex": models.murex,
+    **{f"figure{key}": fig.build for key, fig in models.FIGURES.items()},
+}
 
 
 def resolve_scene(name: str) -> Node:

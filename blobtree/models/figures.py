@@ -1,0 +1,237 @@
+"""The models of the paper's figures (3-11 and 14), each a function returning one BlobTree, and
+:data:`FIGURES`: for each figure its builder, a suggested camera and the paper's caption."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..nodes import Node, Point, blend, controlled_blend, super_blend, union
+from .murex import (
+    BUMP_BLEND_N,
+    CANAL_SECTIONS,
+    DEFAULT,
+    body_whorl,
+    bumps,
+    canal_spines,
+    generating_surface,
+    inside_generating_surface,
+    inside_whorl,
+    instance_angle,
+    murex,
+    opening,
+    sections,
+    varix,
+    whorl,
+)
+
+#: Shell figures are seen with the apex up (the shell grows toward +y, see murex.py) ...
+SHELL_UP = (0.0, -1.0, 0.0)
+#: ... from the side of the aperture (aperture on the right, as in Figure 14).
+APERTURE_VIEW = (-0.86, 0.0, -0.72)
+#: Local parts (generating surfaces, varices) are seen face on, the apex side up.
+LOCAL_VIEW = (0.0, 0.0, -1.0)
+
+
+def _row(nodes: Sequence[Node], view: Sequence[float], up: Sequence[float],
+         gap: float = 0.4, column: bool = False) -> Node:
+    """Place nodes side by side, left to right on screen for this view (top to bottom when
+    ``column``), each centred on the others' line."""
+    d = np.asarray(view, float) / np.linalg.norm(view)
+    u = np.asarray(up, float) - d * (d @ np.asarray(up, float))
+    u /= np.linalg.norm(u)
+    step = -u if column else np.cross(d, u)
+    boxes = [n.bounds() for n in nodes]
+    widths = [float(np.abs(step) @ (hi - lo)) for lo, hi in boxes]
+    x = -0.5 * (sum(widths) + gap * (len(nodes) - 1))
+    out = []
+    for node, (lo, hi), w in zip(nodes, boxes, widths, strict=True):
+        shift = step * (x + 0.5 * w) - 0.5 * (lo + hi)
+        out.append(node.translate(*shift))
+        x += w + gap
+    return union(*out)
+
+
+def _outward_view(instance: int) -> tuple[float, float, float]:
+    """Looking at the outside of the whorl at this instance, toward the shell axis."""
+    t = math.radians(instance_angle(instance))
+    return (-math.cos(t), 0.0, math.sin(t))
+
+
+#: Figure 8 shows the bumps between varix 19 and 20 (on the last whorl).
+BUMP_INTERVAL = 19
+
+
+def figure_3(n_values: Sequence[float] = tuple(range(1, 11))) -> Node:
+    """Figure 3 / Eq. 4: two points joined by the super-elliptic blend, n = 1..10, in a row."""
+    pairs = [
+        super_blend(Point(radius=1.0, center=(-0.42, 0, 0)), Point(radius=1.0, center=(0.42, 0, 0)),
+                    n=n)
+        for n in n_values
+    ]
+    return _row(pairs, LOCAL_VIEW, (0, 1, 0), gap=0.3)
+
+
+def figure_4(radii: Sequence[float] = (1.0, 1.4, DEFAULT.point_radius)) -> Node:
+    """Figure 4: the six points of a section on the helico-spiral (Eq. 9), their field radius
+    growing from left to right until they form part of a whorl."""
+    return _row([whorl(120, 125, Point(radius=r)) for r in radii], (0.0, 1.0, 0.0),
+                (0.0, 0.0, -1.0))
+
+
+def figure_5() -> Node:
+    """Figure 5: the 21 sections of a point whorl, all blended (left) and with the controlled
+    blending of Eq. 10 (right)."""
+    secs = sections(canal_sections=0)
+    pairs = [(j, j + 1) for j in range(len(secs) - 1)]
+    return _row([blend(*secs), controlled_blend(secs, pairs=pairs)], APERTURE_VIEW, SHELL_UP)
+
+
+def figure_6() -> Node:
+    """Figure 6: the generating surface with its canal cone (left, enlarged) and the whorl it
+    defines (right, canal in the last 1 1/3 whorls)."""
+    return _row([generating_surface(canal=True).scale(0.5), body_whorl()], LOCAL_VIEW,
+                SHELL_UP)
+
+
+def figure_7(whorl_index: int = 7) -> Node:
+    """Figure 7: the four stages of a varix (Eq. 12): bent cones; plus the two tori; shorter
+    spines with thicker tops; all spines scaled by delta_max across the varix."""
+    stages = [
+        varix(whorl_index, tori=False, thick_tops=False, widen=False),
+        varix(whorl_index, tori=True, thick_tops=False, widen=False),
+        varix(whorl_index, tori=True, thick_tops=True, widen=False),
+        varix(whorl_index),
+    ]
+    rows = [_row(stages[i:i + 2], LOCAL_VIEW, SHELL_UP) for i in (0, 2)]
+    return _row(rows, LOCAL_VIEW, SHELL_UP, column=True)
+
+
+def figure_8(seed: int = 0) -> Node:
+    """Figure 8: two whorl sections with five sets of bumps: equal bumps blended by + (left),
+    randomly scaled bumps joined by the super-elliptic blend n = 400 (right)."""
+    k = BUMP_INTERVAL
+    secs = sections(canal_sections=0)[k:k + 2]
+    base = controlled_blend(secs, pairs=[(0, 1)])
+    plain = blend(base, *bumps(None, intervals=[k]))
+    rough = super_blend(base, *bumps(seed, intervals=[k]), n=BUMP_BLEND_N)
+    return _row([plain, rough], _outward_view(6 * k + 2), SHELL_UP)
+
+
+def _canal_part(seed: int | None) -> Node:
+    canal = sections()[-CANAL_SECTIONS:]
+    pairs = [(j, j + 1) for j in range(len(canal) - 1)]
+    return blend(controlled_blend(canal, pairs=pairs), *canal_spines(seed))
+
+
+def figure_9(seed: int = 0) -> Node:
+    """Figure 9: the axial rows of canal spines (Table 2) straight (left) and each bent 3-9 deg
+    one to three times (right), on the last 1 1/3 whorls."""
+    return _row([_canal_part(None), _canal_part(seed)], APERTURE_VIEW, SHELL_UP)
+
+
+def figure_10() -> Node:
+    """Figure 10: the inside generating surface (left, enlarged), the inside whorl (centre) and
+    the opening cut from the shell, B_inside - B_w 94..108 (right, Eq. 14)."""
+    return _row([inside_generating_surface().scale(0.5), inside_whorl(), opening()],
+                APERTURE_VIEW, SHELL_UP)
+
+
+def figure_11(seed: int = 0) -> Node:
+    """Figure 11: the opening carved by Eq. 14 (left) and after adding the inside wall, Eq. 15
+    (right)."""
+    return _row([murex(seed, inside=False), murex(seed)], APERTURE_VIEW, SHELL_UP)
+
+
+def figure_14(seed: int = 0) -> Node:
+    """Figure 14: the model of Murex cabritii."""
+    return murex(seed)
+
+
+@dataclass(frozen=True)
+class Figure:
+    """A figure of the paper: how to build its model, how to look at it, what the paper says."""
+
+    build: Callable[[], Node]
+    caption: str
+    view: tuple[float, float, float] = APERTURE_VIEW
+    up: tuple[float, float, float] = SHELL_UP
+    fov: float = 30.0
+
+    def camera(self, tree: Node | None = None) -> dict[str, tuple[float, ...] | float]:
+        """Suggested camera (eye, target, up, fov in degrees) framing the tree along ``view``."""
+        lo, hi = (self.build() if tree is None else tree).bounds()
+        target = 0.5 * (lo + hi)
+        d = np.asarray(self.view, float) / np.linalg.norm(self.view)
+        u = np.asarray(self.up, float) - d * (d @ self.up)
+        u /= np.linalg.norm(u)
+        r = np.cross(d, u)
+        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
+                            for z in (lo[2], hi[2])]) - target
+        half = max(np.abs(corners @ r).max(), np.abs(corners @ u).max())
+        depth = np.abs(corners @ d).max()
+        distance = 1.08 * half / math.tan(math.radians(self.fov) / 2.0) + depth
+        eye = target - d * distance
+        return {"eye": tuple(map(float, eye)), "target": tuple(map(float, target)),
+                "up": tuple(map(float, u)), "fov": self.fov}
+
+
+#: Figure number -> model, camera and the paper's caption.
+FIGURES: dict[str, Figure] = {
+    "3": Figure(figure_3, "Super-elliptic blending", view=LOCAL_VIEW, up=(0.0, 1.0, 0.0)),
+    "4": Figure(
+        figure_4,
+        "Six point primitives placed on a helico-spiral. As the size of the field produced by "
+        "each primitive increases, the resulting surface forms part of the main body whorl of a "
+        "shell.",
+        view=(0.0, 1.0, 0.0), up=(0.0, 0.0, -1.0),
+    ),
+    "5": Figure(
+        figure_5,
+        "Each whorl of a shell is composed of three sections (shown in Figure 4). On the left all "
+        "sections blend with all other sections, on the right controlled blending constrains "
+        "each section to blend only with its two neighbours along the helico-spiral.",
+    ),
+    "6": Figure(
+        figure_6,
+        "On the left is the generating surface used for the model of Murex cabritii, on the "
+        "right is the whorl this surface defines.",
+        view=LOCAL_VIEW,
+    ),
+    "7": Figure(
+        figure_7,
+        "Creation of a varix. Top left: bent cones are placed as curved spines. Top right: two "
+        "concentric tori blend spines together. Bottom left: smaller spines are modeled with "
+        "wider tips. Bottom right: All spines scaled by delta_max along helico-spiral "
+        "(Equation 12).",
+        view=LOCAL_VIEW,
+    ),
+    "8": Figure(
+        figure_8,
+        "Creation of bumps. Left: similar bumps blended to shell using + operator. Right: "
+        "randomly scaled bumps blended to shell with the diamond_400 operator. The value 400 was "
+        "required due the great disparity in strength and extend of field between the large "
+        "whorl and small bumps.",
+        view=_outward_view(6 * BUMP_INTERVAL + 2),
+    ),
+    "9": Figure(
+        figure_9,
+        "Axial rows of 5-6 spines. Left: spines are straight. Right: each spine randomly bent "
+        "3 to 9 degrees 1-3 times.",
+    ),
+    "10": Figure(
+        figure_10,
+        "On the left is the generating surface used for the inside of Murex cabritii, in the "
+        "center is the whorl this surface defines, and on the right is the final surface which "
+        "will be cut out of the main shell to create the opening.",
+    ),
+    "11": Figure(
+        figure_11,
+        "On the left is the opening which is carved out by Equation 14, on the right is the "
+        "final shape of the opening after adding in B_inside_wall as in Equation 15.",
+    ),
+    "14": Figure(figure_14, "Model of Murex cabritii."),
+}
