@@ -90,11 +90,12 @@ def linear_to_srgb_byte(c):
 
 
 @njit(cache=True)
-def shade(code, params, boxes, lips, px, py, pz, vx, vy, vz, lights, lo, hi, shadows,
-          ambient, specular, shininess, shadow_eps, out, vstack, pstack):
+def shade(code, params, boxes, lips, local_code, local_boxes, px, py, pz, vx, vy, vz, lights,
+          lo, hi, shadows, ambient, specular, shininess, shadow_eps, out, vstack, pstack):
     """Linear RGB at surface point p seen along view direction v (unit, toward the surface),
-    written into out[0:3]."""
-    kernels.eval_point(code, params, boxes, px, py, pz, 2, vstack, pstack)
+    written into out[0:3].  Normal and albedo come from ``local_code, local_boxes`` (a program
+    specialised to a region around p, or the full one); shadow rays use the full program."""
+    kernels.eval_point(local_code, params, local_boxes, px, py, pz, 2, vstack, pstack)
     # The field decreases outward, so the outward normal is -grad f.
     nx, ny, nz = -vstack[0, 1], -vstack[0, 2], -vstack[0, 3]
     nn = np.sqrt(nx * nx + ny * ny + nz * nz)

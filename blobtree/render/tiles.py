@@ -15,6 +15,7 @@ import numpy as np
 from numba import njit, prange
 
 from .. import kernels
+from ..specialize import specialize
 from .camera import Camera, as_color
 from .shade import Light, linear_to_srgb_byte, pack_lights, shade, srgb_to_linear
 from .trace import clip_box, march_cone, trace
@@ -29,6 +30,10 @@ EPS_SCENE = 1e-6
 SHADOW_OFFSET = 1e-4
 #: Side in pixels of the cones marched before single rays (see ``_render_rect``).
 BLOCK, SUB = 16, 4
+#: Length of the stretch of a SUB cone (in cone radii) its specialised program covers.
+LOCAL_SPAN = 32.0
+#: First candidate segment of a ray, as a fraction of its chord through the bounds box.
+DELTA0 = 0.05
 
 
 @dataclass(frozen=True)
@@ -132,7 +137,8 @@ def _ray(cam, width, height, x, y):
 def _block_start(code, params, boxes, lips, cam, width, height, bx0, by0, bx1, by1, t, t_far,
                  vstack, pstack):
     """A depth before which no ray through pixels [bx0, bx1) x [by0, by1) meets the surface
-    (:func:`march_cone` on the cone around them), inf if none of them does."""
+    (:func:`march_cone` on the cone around them), inf if none of them does; and the cone's unit
+    axis and tan of its half-angle."""
     ax, ay, az = _ray(cam, width, height, 0.5 * (bx0 + bx1), 0.5 * (by0 + by1))
     tan_a = 0.0
     for cx in (bx0, bx1):
@@ -140,20 +146,24 @@ def _block_start(code, params, boxes, lips, cam, width, height, bx0, by0, bx1, b
             dx, dy, dz = _ray(cam, width, height, cx, cy)
             c = dx * ax + dy * ay + dz * az
             tan_a = max(tan_a, np.sqrt(max(1.0 - c * c, 0.0)) / c)
-    return march_cone(code, params, boxes, lips, cam[0], cam[1], cam[2], ax, ay, az,
-                      tan_a * 1.000001, t, t_far, vstack, pstack)
+    tan_a *= 1.000001
+    t = march_cone(code, params, boxes, lips, cam[0], cam[1], cam[2], ax, ay, az, tan_a, t,
+                   t_far, vstack, pstack)
+    return t, ax, ay, az, tan_a
 
 
 @njit(cache=True)
-def _pixel(code, params, boxes, lips, cam, lights, lo, hi, width, height, samples, shadows, bg,
-           bg_bytes, ambient, specular, shininess, eps_abs, eps_rel, shadow_eps, seed, px, py,
-           t_start, out, iy, ix, rgb, vstack, pstack):
+def _pixel(code, params, boxes, lips, local, cam, lights, lo, hi, width, height, samples,
+           shadows, bg, bg_bytes, ambient, specular, shininess, eps_abs, eps_rel, shadow_eps,
+           seed, px, py, t_start, t_local, out, iy, ix, rgb, vstack, pstack):
     """Trace and shade pixel (px, py) with every ray starting at depth t_start; write its sRGB
-    bytes into out[iy, ix]."""
+    bytes into out[iy, ix].  Up to depth t_local the rays stay in the region the program
+    ``local = (code, boxes, lips)`` is specialised to; beyond it they use the full program."""
     if t_start == np.inf:
         for c in range(3):
             out[iy, ix, c] = bg_bytes[c]
         return
+    lcode, lboxes, llips = local
     m = int(np.ceil(np.sqrt(samples)))
     rows = (samples + m - 1) // m
     acc_r = acc_g = acc_b = 0.0
@@ -168,18 +178,25 @@ def _pixel(code, params, boxes, lips, cam, lights, lo, hi, width, height, sample
         dx, dy, dz = _ray(cam, width, height, px + u, py + v)
         t0, t1 = clip_box(cam[0], cam[1], cam[2], dx, dy, dz, lo, hi, t_start, np.inf)
         t = -1.0
-        if t0 <= t1:
+        inside = True
+        if t0 <= min(t1, t_local):
+            t = trace(lcode, params, lboxes, llips, cam[0], cam[1], cam[2], dx, dy, dz, t0,
+                      min(t1, t_local), eps_abs, eps_rel, DELTA0 * (t1 - t0) + eps_abs,
+                      vstack, pstack)
+        if t < 0.0 and t_local < t1:
+            inside = False
+            t0 = max(t0, t_local)
             t = trace(code, params, boxes, lips, cam[0], cam[1], cam[2], dx, dy, dz, t0, t1,
-                      eps_abs, eps_rel, 0.05 * (t1 - t0) + eps_abs, vstack, pstack)
+                      eps_abs, eps_rel, DELTA0 * (t1 - t0) + eps_abs, vstack, pstack)
         if t < 0.0:
             acc_r += bg[0]
             acc_g += bg[1]
             acc_b += bg[2]
             continue
         hits += 1
-        shade(code, params, boxes, lips, cam[0] + t * dx, cam[1] + t * dy, cam[2] + t * dz,
-              dx, dy, dz, lights, lo, hi, shadows, ambient, specular, shininess, shadow_eps,
-              rgb, vstack, pstack)
+        shade(code, params, boxes, lips, lcode if inside else code, lboxes if inside else boxes,
+              cam[0] + t * dx, cam[1] + t * dy, cam[2] + t * dz, dx, dy, dz, lights, lo, hi,
+              shadows, ambient, specular, shininess, shadow_eps, rgb, vstack, pstack)
         acc_r += rgb[0]
         acc_g += rgb[1]
         acc_b += rgb[2]
@@ -192,12 +209,27 @@ def _pixel(code, params, boxes, lips, cam, lights, lo, hi, width, height, sample
         out[iy, ix, 2] = linear_to_srgb_byte(acc_b / samples)
 
 
+@njit(cache=True)
+def _localize(code, boxes, lips, cam, ax, ay, az, tan_a, t_a, t_b, oc, ob, ol, lo, hi):
+    """Specialise the program to the box around the cone (apex: the eye, unit axis a, half-angle
+    atan(tan_a)) between axis depths t_a and t_b; return (code, boxes, lips) views."""
+    r = t_b * tan_a
+    for k in range(3):
+        a = cam[k] + t_a * (ax, ay, az)[k]
+        b = cam[k] + t_b * (ax, ay, az)[k]
+        lo[k] = min(a, b) - r
+        hi[k] = max(a, b) + r
+    n = specialize(code, boxes, lips, lo, hi, oc, ob, ol)
+    return oc[:n], ob[:n], ol[:n]
+
+
 @njit(cache=True, parallel=True)
 def _render_rect(code, params, boxes, lips, depth, cam, lights, lo, hi, width, height, samples,
                  shadows, background, ambient, specular, shininess, eps_abs, shadow_eps, seed,
                  x0, y0, x1, y1, nthreads):
     """Pixels [x0, x1) x [y0, y1): blocks of BLOCK^2 pixels in parallel, each first marched as
-    one cone, then as cones of SUB^2 pixels, then ray by ray from where its cones stopped."""
+    one cone, then as cones of SUB^2 pixels; each of those specialises the program to the stretch
+    of its cone just past where it stopped, then traces its rays one by one."""
     out = np.empty((y1 - y0, x1 - x0, 3), dtype=np.uint8)
     bg = np.empty(3)
     bg_bytes = np.empty(3, dtype=np.uint8)
@@ -219,6 +251,7 @@ def _render_rect(code, params, boxes, lips, depth, cam, lights, lo, hi, width, h
     nbx = (x1 - x0 + BLOCK - 1) // BLOCK
     nby = (y1 - y0 + BLOCK - 1) // BLOCK
     nb = nbx * nby
+    ncode = code.shape[0]
     # prange hands each thread a contiguous run of k: deal blocks round-robin instead, so every
     # thread gets blocks from all over the rectangle.
     order = np.argsort(np.arange(nb) % nthreads, kind="mergesort")
@@ -230,20 +263,33 @@ def _render_rect(code, params, boxes, lips, depth, cam, lights, lo, hi, width, h
         by1 = min(by0 + BLOCK, y1)
         vstack, pstack = kernels.scratch(depth)
         rgb = np.empty(3)
+        oc = np.empty((ncode, 4), dtype=np.int64)
+        ob = np.empty((ncode, 6))
+        ol = np.empty(ncode)
+        rlo = np.empty(3)
+        rhi = np.empty(3)
         tb = _block_start(code, params, boxes, lips, cam, width, height, bx0, by0, bx1, by1,
-                          t_near, t_far, vstack, pstack)
+                          t_near, t_far, vstack, pstack)[0]
         for sy0 in range(by0, by1, SUB):
             for sx0 in range(bx0, bx1, SUB):
                 sx1 = min(sx0 + SUB, bx1)
                 sy1 = min(sy0 + SUB, by1)
                 ts = tb
+                t_local = tb
+                local = (code, boxes, lips)
                 if tb < np.inf:
-                    ts = _block_start(code, params, boxes, lips, cam, width, height, sx0, sy0,
-                                      sx1, sy1, tb, t_far, vstack, pstack)
+                    ts, ax, ay, az, tan_a = _block_start(code, params, boxes, lips, cam, width,
+                                                         height, sx0, sy0, sx1, sy1, tb, t_far,
+                                                         vstack, pstack)
+                    if ts < np.inf:
+                        t_local = ts + LOCAL_SPAN * ts * tan_a
+                        local = _localize(code, boxes, lips, cam, ax, ay, az, tan_a,
+                                          ts / np.sqrt(1.0 + tan_a * tan_a), t_local, oc, ob,
+                                          ol, rlo, rhi)
                 for py in range(sy0, sy1):
                     for px in range(sx0, sx1):
-                        _pixel(code, params, boxes, lips, cam, lights, lo, hi, width, height,
-                               samples, shadows, bg, bg_bytes, ambient, specular, shininess,
-                               eps_abs, eps_rel, shadow_eps, seed, px, py, ts,
-                               out, py - y0, px - x0, rgb, vstack, pstack)
+                        _pixel(code, params, boxes, lips, local, cam, lights, lo, hi, width,
+                               height, samples, shadows, bg, bg_bytes, ambient, specular,
+                               shininess, eps_abs, eps_rel, shadow_eps, seed, px, py, ts,
+                               t_local, out, py - y0, px - x0, rgb, vstack, pstack)
     return out
