@@ -53,16 +53,17 @@ def clip_box(ox, oy, oz, dx, dy, dz, lo, hi, tmin, tmax):
 
 @njit(cache=True)
 def _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, ta, fa, tb, fb, tol, vstack, pstack):
-    """Root of f - ISO in [ta, tb] with fa < 0 <= fb, to within tol (Illinois regula falsi)."""
+    """Root of f - ISO in [ta, tb] with fa < 0 <= fb (Illinois regula falsi), stopping once
+    the secant slope puts the root within tol of the estimate."""
     side = 0
+    t = (ta * fb - tb * fa) / (fb - fa)
     for _ in range(REFINE_ITERS):
-        if tb - ta <= tol:
-            break
-        t = (ta * fb - tb * fa) / (fb - fa)
         if not (ta < t < tb):
             t = 0.5 * (ta + tb)
         f = kernels.eval_point(code, params, boxes, ox + t * dx, oy + t * dy, oz + t * dz, 0,
                                vstack, pstack) - ISO
+        if abs(f) * (tb - ta) <= tol * (fb - fa):
+            return t
         if f >= 0.0:
             tb, fb = t, f
             if side == 1:
@@ -73,7 +74,10 @@ def _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, ta, fa, tb, fb, tol, vs
             if side == -1:
                 fb *= 0.5
             side = -1
-    return (ta * fb - tb * fa) / (fb - fa) if fb != fa else 0.5 * (ta + tb)
+        if tb - ta <= tol:
+            break
+        t = (ta * fb - tb * fa) / (fb - fa)
+    return 0.5 * (ta + tb)
 
 
 @njit(cache=True)
