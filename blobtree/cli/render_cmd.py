@@ -65,9 +65,11 @@ def render(scene, output, size, samples, eye, target, up, fov, no_shadows, backg
         prog = tree.program()
         camera = None
         if eye is not None or target is not None or fov is not None:
-            framed = default_camera(prog, width, height)
-            camera = Camera(eye=eye or framed.eye, target=target or framed.target, up=up,
-                            fov=fov if fov is not None else framed.fov)
+            if eye is None or target is None or fov is None:
+                framed = default_camera(prog, width, height)
+                eye, target = eye or framed.eye, target or framed.target
+                fov = framed.fov if fov is None else fov
+            camera = Camera(eye=eye, target=target, up=up, fov=fov)
         img = render_image(prog, width, height, camera=camera, samples=samples,
                            shadows=not no_shadows, background=background, tile=tile,
                            progress=not quiet)

@@ -236,8 +236,8 @@ def _render_rect(code, params, boxes, lips, depth, cam, lights, lo, hi, width, h
     for c in range(3):
         bg[c] = srgb_to_linear(background[c])
         bg_bytes[c] = np.uint8(int(background[c] * 255.0 + 0.5))
-    # Camera rays may skip features thinner than a quarter of a pixel's footprint.
-    eps_rel = 0.5 * np.sqrt(cam[9] ** 2 + cam[10] ** 2 + cam[11] ** 2) / height
+    # Camera rays may skip features thinner than half a pixel's footprint (along the ray).
+    eps_rel = np.sqrt(cam[9] ** 2 + cam[10] ** 2 + cam[11] ** 2) / height
     # No ray meets the surface before reaching the bounds box, nor after its farthest corner.
     t_near = 0.0
     t_far = 0.0
