@@ -248,8 +248,12 @@ def _render_rect(code, params, boxes, lips, depth, cam, lights, lo, hi, width, h
         t_far += max(abs(e - lo[k]), abs(e - hi[k])) ** 2
     t_near = np.sqrt(t_near)
     t_far = np.sqrt(t_far)
-    nbx = (x1 - x0 + BLOCK - 1) // BLOCK
-    nby = (y1 - y0 + BLOCK - 1) // BLOCK
+    # Blocks and sub-blocks lie on a grid fixed to the image, not to the rectangle, and their
+    # cones always cover the whole grid cell: a pixel's result never depends on the tiling.
+    gx0 = x0 // BLOCK
+    gy0 = y0 // BLOCK
+    nbx = (x1 - 1) // BLOCK - gx0 + 1
+    nby = (y1 - 1) // BLOCK - gy0 + 1
     nb = nbx * nby
     ncode = code.shape[0]
     # prange hands each thread a contiguous run of k: deal blocks round-robin instead, so every
@@ -257,10 +261,10 @@ def _render_rect(code, params, boxes, lips, depth, cam, lights, lo, hi, width, h
     order = np.argsort(np.arange(nb) % nthreads, kind="mergesort")
     for k in prange(nb):
         b = order[k]
-        bx0 = x0 + (b % nbx) * BLOCK
-        by0 = y0 + (b // nbx) * BLOCK
-        bx1 = min(bx0 + BLOCK, x1)
-        by1 = min(by0 + BLOCK, y1)
+        bx0 = (gx0 + b % nbx) * BLOCK
+        by0 = (gy0 + b // nbx) * BLOCK
+        bx1 = min(bx0 + BLOCK, width)
+        by1 = min(by0 + BLOCK, height)
         vstack, pstack = kernels.scratch(depth)
         rgb = np.empty(3)
         oc = np.empty((ncode, 4), dtype=np.int64)
@@ -274,6 +278,8 @@ def _render_rect(code, params, boxes, lips, depth, cam, lights, lo, hi, width, h
             for sx0 in range(bx0, bx1, SUB):
                 sx1 = min(sx0 + SUB, bx1)
                 sy1 = min(sy0 + SUB, by1)
+                if sx1 <= x0 or sx0 >= x1 or sy1 <= y0 or sy0 >= y1:
+                    continue
                 ts = tb
                 t_local = tb
                 local = (code, boxes, lips)
@@ -286,8 +292,8 @@ def _render_rect(code, params, boxes, lips, depth, cam, lights, lo, hi, width, h
                         local = _localize(code, boxes, lips, cam, ax, ay, az, tan_a,
                                           ts / np.sqrt(1.0 + tan_a * tan_a), t_local, oc, ob,
                                           ol, rlo, rhi)
-                for py in range(sy0, sy1):
-                    for px in range(sx0, sx1):
+                for py in range(max(sy0, y0), min(sy1, y1)):
+                    for px in range(max(sx0, x0), min(sx1, x1)):
                         _pixel(code, params, boxes, lips, local, cam, lights, lo, hi, width,
                                height, samples, shadows, bg, bg_bytes, ambient, specular,
                                shininess, eps_abs, eps_rel, shadow_eps, seed, px, py, ts,
