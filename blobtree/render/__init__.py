@@ -8,8 +8,11 @@ assembled into the same bytes.
 from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
+from concurrent.futures import ThreadPoolExecutor, as_completed
 
+import numba
 import numpy as np
+from tqdm import tqdm
 
 from .camera import Camera, default_camera
 from .image import save_image
@@ -41,16 +44,22 @@ def _program(tree):
 def render(tree, width: int, height: int, camera: Camera | None = None,
            lights: Sequence[Light] | None = None, samples: int = 1, shadows: bool = True,
            background: tuple[float, float, float] = (1.0, 1.0, 1.0), *,
-           progress: bool = False, tile: int = TILE, **shading) -> np.ndarray:
+           progress: bool = False, tile: int = TILE, threads: int | None = None,
+           **shading) -> np.ndarray:
     """Ray-trace ``tree`` into an (height, width, 3) uint8 sRGB image.
 
     ``camera`` defaults to a three-quarter view framing the whole surface; ``lights`` to one key
     light; ``samples`` rays per pixel (jittered strata, reproducible); ``background`` is an RGB
-    triple in [0, 1]; ``progress`` shows a bar over tiles; ``shading`` may set ``ambient``,
-    ``specular``, ``shininess`` and the jitter ``seed`` (see :class:`RenderSettings`).
+    triple in [0, 1]; ``progress`` shows a bar over tiles; ``threads`` (default: numba's thread
+    count) render tiles side by side; ``shading`` may set ``ambient``, ``specular``,
+    ``shininess`` and the jitter ``seed`` (see :class:`RenderSettings`).
     """
     settings = RenderSettings(width=width, height=height, samples=samples, shadows=bool(shadows),
                               background=background, **shading)
+    if threads is None:
+        threads = numba.get_num_threads()
+    if not (isinstance(threads, int) and threads >= 1):
+        raise ValueError(f"threads must be an integer >= 1, got {threads!r}")
     prog = _program(tree)
     if camera is None:
         camera = default_camera(prog, width, height)
@@ -59,20 +68,22 @@ def render(tree, width: int, height: int, camera: Camera | None = None,
     lights = default_lights(camera) if lights is None else list(lights)
     cam, packed = camera.packed(width, height), pack_lights(lights)
     img = np.empty((height, width, 3), dtype=np.uint8)
-    work = list(tiles(width, height, tile))
-    bar = None
-    if progress:
-        from tqdm import tqdm
 
-        bar = tqdm(total=len(work), unit="tile", desc="render", leave=False)
+    def work(rect: tuple[int, int, int, int]) -> None:
+        x0, y0, x1, y1 = rect
+        img[y0:y1, x0:x1] = trace_rect(prog, cam, packed, settings, x0, y0, x1, y1)
+
+    rects = list(tiles(width, height, tile))
+    bar = tqdm(total=len(rects), unit="tile", desc="render", leave=False, disable=not progress)
+    # Each tile runs on one core without the GIL; a pool hands tiles out as cores free up.
+    pool = ThreadPoolExecutor(max_workers=threads)
     try:
-        for x0, y0, x1, y1 in work:
-            img[y0:y1, x0:x1] = trace_rect(prog, cam, packed, settings, x0, y0, x1, y1)
-            if bar is not None:
-                bar.update()
-    finally:
-        if bar is not None:
-            bar.close()
+        for done in as_completed([pool.submit(work, r) for r in rects]):
+            done.result()
+            bar.update()
+    finally:  # on Ctrl-C or an error: drop the tiles not started, wait for the running ones
+        pool.shutdown(wait=True, cancel_futures=True)
+        bar.close()
     return img
 
 

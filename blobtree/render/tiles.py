@@ -10,9 +10,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numba
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from .. import kernels
 from ..specialize import specialize
@@ -98,7 +97,7 @@ def trace_rect(prog, cam: np.ndarray, lights: np.ndarray, settings: RenderSettin
     return _render_rect(code, params, boxes, lips, prog.depth, cam, lights, lo, hi,
                         s.width, s.height, s.samples, s.shadows, np.array(s.background),
                         s.ambient, s.specular, s.shininess, EPS_SCENE * diag,
-                        SHADOW_OFFSET * diag, s.seed, x0, y0, x1, y1, numba.get_num_threads())
+                        SHADOW_OFFSET * diag, s.seed, x0, y0, x1, y1)
 
 
 @njit(cache=True)
@@ -223,13 +222,13 @@ def _localize(code, boxes, lips, cam, ax, ay, az, tan_a, t_a, t_b, oc, ob, ol, l
     return oc[:n], ob[:n], ol[:n]
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, nogil=True)
 def _render_rect(code, params, boxes, lips, depth, cam, lights, lo, hi, width, height, samples,
                  shadows, background, ambient, specular, shininess, eps_abs, shadow_eps, seed,
-                 x0, y0, x1, y1, nthreads):
-    """Pixels [x0, x1) x [y0, y1): blocks of BLOCK^2 pixels in parallel, each first marched as
-    one cone, then as cones of SUB^2 pixels; each of those specialises the program to the stretch
-    of its cone just past where it stopped, then traces its rays one by one."""
+                 x0, y0, x1, y1):
+    """Pixels [x0, x1) x [y0, y1), on one core without the GIL: blocks of BLOCK^2 pixels, each
+    first marched as one cone, then as cones of SUB^2 pixels; each of those specialises the program
+    to the stretch of its cone just past where it stopped, then traces its rays one by one."""
     out = np.empty((y1 - y0, x1 - x0, 3), dtype=np.uint8)
     bg = np.empty(3)
     bg_bytes = np.empty(3, dtype=np.uint8)
@@ -256,22 +255,18 @@ def _render_rect(code, params, boxes, lips, depth, cam, lights, lo, hi, width, h
     nby = (y1 - 1) // BLOCK - gy0 + 1
     nb = nbx * nby
     ncode = code.shape[0]
-    # prange hands each thread a contiguous run of k: deal blocks round-robin instead, so every
-    # thread gets blocks from all over the rectangle.
-    order = np.argsort(np.arange(nb) % nthreads, kind="mergesort")
-    for k in prange(nb):
-        b = order[k]
+    vstack, pstack = kernels.scratch(depth)
+    rgb = np.empty(3)
+    oc = np.empty((ncode, 4), dtype=np.int64)
+    ob = np.empty((ncode, 6))
+    ol = np.empty(ncode)
+    rlo = np.empty(3)
+    rhi = np.empty(3)
+    for b in range(nb):
         bx0 = (gx0 + b % nbx) * BLOCK
         by0 = (gy0 + b // nbx) * BLOCK
         bx1 = min(bx0 + BLOCK, width)
         by1 = min(by0 + BLOCK, height)
-        vstack, pstack = kernels.scratch(depth)
-        rgb = np.empty(3)
-        oc = np.empty((ncode, 4), dtype=np.int64)
-        ob = np.empty((ncode, 6))
-        ol = np.empty(ncode)
-        rlo = np.empty(3)
-        rhi = np.empty(3)
         tb = _block_start(code, params, boxes, lips, cam, width, height, bx0, by0, bx1, by1,
                           t_near, t_far, vstack, pstack)[0]
         for sy0 in range(by0, by1, SUB):
