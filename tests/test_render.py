@@ -205,6 +205,8 @@ def test_default_camera_frames_the_whole_tree():
         ({"samples": 0}, "samples"),
         ({"background": (255, 0, 0)}, "background"),
         ({"lights": ["sun"]}, "lights[0]"),
+        ({"threads": 0}, "threads"),
+        ({"camera": "front"}, "camera"),
     ],
 )
 def test_bad_render_arguments_name_the_parameter(kwargs, name):

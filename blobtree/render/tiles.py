@@ -1,8 +1,9 @@
 """Rendering one rectangle of the image: the unit of parallel and distributed work.
 
 Every pixel depends only on its own coordinates (anti-aliasing jitter comes from a hash of the
-seed, the pixel and the sample index), so any set of tiles, rendered in any order on any machine,
-assembles into a byte-identical image.
+seed, the pixel and the sample index; the cones marched ahead of the rays lie on a grid fixed to
+the image), so any set of tiles, rendered in any order on any machine, assembles into a
+byte-identical image.
 """
 
 from __future__ import annotations
@@ -22,8 +23,8 @@ from .trace import clip_box, march_cone, trace
 #: Largest image side accepted (a 16384^2 image is 805 MB of RGB).
 MAX_SIDE = 16384
 MAX_SAMPLES = 1024
-#: Smallest ray step, as a fraction of the scene's diagonal (camera rays also allow a
-#: quarter-pixel footprint).
+#: Smallest ray step, as a fraction of the scene's diagonal (camera rays also allow half a
+#: pixel's footprint).
 EPS_SCENE = 1e-6
 #: Shadow-ray start offset along the normal, as a fraction of the scene's diagonal.
 SHADOW_OFFSET = 1e-4
