@@ -13,12 +13,14 @@ from typing import Any
 
 from .files import atomic_path
 from .nodes import NODE_TYPES, Node, Operator, Primitive, Unary
+from .texture import HelicoSurface, image_from_text
 
 FORMAT = "blobtree-scene"
 VERSION = 1
 
 # Parameter kinds per node type (the file format's schema).
 _NUM, _VEC, _STR, _AXIS, _PAIRS = "number", "3-vector", "string", "axis", "list of index pairs"
+_MAP = "mapping ('primitive' or {\"helico\": {...}})"
 _PRIM = {"radius": _NUM, "falloff": _STR}
 SCHEMA: dict[str, dict[str, str]] = {
     "point": {"center": _VEC, **_PRIM},
@@ -37,6 +39,7 @@ SCHEMA: dict[str, dict[str, str]] = {
     "twist": {"degrees_per_unit": _NUM, "axis": _STR},
     "taper": {"rate": _NUM, "axis": _STR},
     "color": {"rgb": _VEC},
+    "texture": {"image": _STR, "mapping": _MAP, "wrap": _STR},
 }
 assert set(SCHEMA) == set(NODE_TYPES)
 
@@ -126,6 +129,8 @@ def _check_value(kind: str, v: Any, path: str) -> Any:
         _STR: lambda: isinstance(v, str),
         _AXIS: lambda: isinstance(v, str) or (
             isinstance(v, list) and len(v) == 3 and all(is_num(x) for x in v)),
+        _MAP: lambda: v == "primitive" or (isinstance(v, dict) and list(v) == ["helico"]
+                                           and isinstance(v["helico"], dict)),
         _PAIRS: lambda: isinstance(v, list) and all(
             isinstance(p, list) and len(p) == 2
             and all(isinstance(x, int) and not isinstance(x, bool) for x in p) for p in v),
@@ -167,10 +172,14 @@ def _build(d: Any, path: str) -> Node:
                          f"got {len(raw_children)}")
     children = [_build(c, f"{path}.children[{i}]") for i, c in enumerate(raw_children)]
     try:
+        if t == "texture":  # embedded data only: a scene file never names files to read
+            params = dict(params, image=image_from_text(params["image"]))
+            if params["mapping"] != "primitive":
+                params["mapping"] = HelicoSurface.from_dict(params["mapping"]["helico"])
         if issubclass(cls, Operator):
             return cls(*children, **params)
         if issubclass(cls, Unary):
             return cls(children[0], **params)
         return cls(**params)
-    except ValueError as e:
+    except (ValueError, TypeError) as e:
         raise SceneError(f"{path}: {e}") from None

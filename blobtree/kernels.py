@@ -22,6 +22,13 @@ OP_POINT, OP_CONE, OP_TORUS, OP_DISC, OP_CYLINDER = 0, 1, 2, 3, 4
 OP_BOX, OP_BLEND, OP_SUPER, OP_UNION, OP_INTER, OP_DIFF, OP_CBLEND = 5, 6, 7, 8, 9, 10, 11
 OP_PUSHPT, OP_BEND, OP_TWIST, OP_TAPER, OP_POPPT, OP_COLOR = 12, 13, 14, 15, 16, 17
 OP_ZERO = 18  # pushes 0: a subtree removed by specialisation (specialize.py)
+OP_TEXBOUND = 19  # bounding-surface texture (texture.HelicoSurface) over the subtree below
+
+
+@njit(cache=True, inline="always")
+def is_paint(op):
+    """Ops that repaint the value below them (a one-child subtree closing)."""
+    return op == OP_COLOR or op == OP_TEXBOUND
 
 #: Size of the common primitive header in params: 3x4 frame->local map, R, falloff id.
 PRIM_HEADER = 14
@@ -176,7 +183,129 @@ def _warp(op, p, o, x, y, z, ps, pp, mode):
     return nx, ny, nz
 
 
+@njit(cache=True, inline="always")
+def _turn(y, x):
+    """atan2(y, x) as a fraction of a turn in [0, 1)."""
+    t = math.atan2(y, x) / (2.0 * math.pi)
+    if t < 0.0:
+        t += 1.0
+    return 0.0 if t >= 1.0 else t
+
+
+@njit(cache=True, inline="always")
+def _wrap(i, n, mode):
+    if mode == 0:
+        return i % n
+    return min(max(i, 0), n - 1)
+
+
 @njit(cache=True)
+def texel(p, t, u, v):
+    """Bilinear colour of the texture block at params[t:] ([w, h, wrap, rgb rows...])."""
+    w, h, wrap = int(p[t]), int(p[t + 1]), int(p[t + 2])
+    x = u * w - 0.5
+    y = v * h - 0.5
+    fx0, fy0 = math.floor(x), math.floor(y)
+    fx, fy = x - fx0, y - fy0
+    x0, y0 = int(fx0), int(fy0)
+    xa, xb = _wrap(x0, w, wrap), _wrap(x0 + 1, w, wrap)
+    ya, yb = _wrap(y0, h, wrap), _wrap(y0 + 1, h, wrap)
+    a, b = t + 3 + 3 * (ya * w + xa), t + 3 + 3 * (ya * w + xb)
+    c, d = t + 3 + 3 * (yb * w + xa), t + 3 + 3 * (yb * w + xb)
+    wa, wb, wc, wd = (1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy
+    return (wa * p[a] + wb * p[b] + wc * p[c] + wd * p[d],
+            wa * p[a + 1] + wb * p[b + 1] + wc * p[c + 1] + wd * p[d + 1],
+            wa * p[a + 2] + wb * p[b + 2] + wc * p[c + 2] + wd * p[d + 2])
+
+
+@njit(cache=True)
+def _prim_uv(op, p, o, qx, qy, qz):
+    """The primitive's own (u, v) (see the ``uv`` methods in nodes.py)."""
+    h = o + PRIM_HEADER
+    if op == OP_POINT:
+        dx, dy, dz = qx - p[h], qy - p[h + 1], qz - p[h + 2]
+        r = math.sqrt(dx * dx + dy * dy + dz * dz)
+        c = min(max(dy / r if r > 0.0 else 0.0, -1.0), 1.0)
+        return _turn(-dz, dx), math.acos(c) / math.pi
+    if op == OP_TORUS or op == OP_DISC:
+        dx, dy, dz = qx - p[h + 1], qy - p[h + 2], qz - p[h + 3]
+        rho = math.sqrt(dx * dx + dz * dz)
+        if op == OP_DISC:
+            return _turn(-dz, dx), min(rho / p[h], 1.0)
+        return _turn(-dz, dx), _turn(dy, rho - p[h])
+    ax, ay, az = p[h], p[h + 1], p[h + 2]
+    ux, uy, uz = p[h + 3] - ax, p[h + 4] - ay, p[h + 5] - az
+    l2 = ux * ux + uy * uy + uz * uz
+    t = min(max(((qx - ax) * ux + (qy - ay) * uy + (qz - az) * uz) / l2, 0.0), 1.0)
+    e = h + 8 if op == OP_CONE else h + 7
+    if op == OP_CONE:
+        dx, dy, dz = qx - ax - t * ux, qy - ay - t * uy, qz - az - t * uz
+    else:
+        dx, dy, dz = qx - ax, qy - ay, qz - az
+    d1 = dx * p[e] + dy * p[e + 1] + dz * p[e + 2]
+    d2 = dx * p[e + 3] + dy * p[e + 4] + dz * p[e + 5]
+    return _turn(d2, d1), t
+
+
+@njit(cache=True)
+def _helico_locate(p, s, x, y, z):
+    """Nearest whorl of the spiral (params at s): theta, dr, dy, radial unit (rx, rz), D."""
+    r0, rho_, cot, dr_ratio, theta_max = p[s], p[s + 1], p[s + 2], p[s + 3], p[s + 4]
+    rho = math.sqrt(x * x + z * z)
+    phi = math.degrees(math.atan2(-z, x))
+    if phi < 0.0:
+        phi += 360.0
+    best_t, best_d = 0.0, np.inf
+    for k in range(int(theta_max // 360.0) + 2):
+        t = phi + 360.0 * k
+        r = r0 * rho_ ** (t / 360.0)
+        d = ((rho - r) ** 2 + (y - r * cot) ** 2) / (r * r)  # relative to the whorl's size
+        if d < best_d:
+            best_t, best_d = t, d
+    r = r0 * rho_ ** (best_t / 360.0)
+    rx, rz = (x / rho, z / rho) if rho > 0.0 else (0.0, 0.0)
+    return best_t, rho - r, y - r * cot, rx, rz, dr_ratio * r
+
+
+@njit(cache=True)
+def _texbound(p, o, px, py, pz, gx, gy, gz):
+    """Colour of the bounding-surface texture (texture.HelicoSurface) at a point with
+    gradient g (frame coordinates); params: frame->local map (12), inverse-transpose (9),
+    r0, rho, cot(beta), D/R, theta_max, u_period, radius_factor, gradient_weight, step,
+    max_steps, texture offset."""
+    x = p[o] * px + p[o + 1] * py + p[o + 2] * pz + p[o + 3]
+    y = p[o + 4] * px + p[o + 5] * py + p[o + 6] * pz + p[o + 7]
+    z = p[o + 8] * px + p[o + 9] * py + p[o + 10] * pz + p[o + 11]
+    m = o + 12
+    lx = p[m] * gx + p[m + 1] * gy + p[m + 2] * gz
+    ly = p[m + 3] * gx + p[m + 4] * gy + p[m + 5] * gz
+    lz = p[m + 6] * gx + p[m + 7] * gy + p[m + 8] * gz
+    gn = math.sqrt(lx * lx + ly * ly + lz * lz)
+    if gn > 0.0:
+        lx, ly, lz = -lx / gn, -ly / gn, -lz / gn  # the field falls outward
+    s = o + 21
+    u_period, factor, wgt = p[s + 5], p[s + 6], p[s + 7]
+    step, nsteps, tex = p[s + 8], int(p[s + 9]), int(p[s + 10])
+    for _ in range(nsteps):
+        theta, dr, dy, rx, rz, d = _helico_locate(p, s, x, y, z)
+        dist = math.sqrt(dr * dr + dy * dy)
+        if dist >= factor * d:
+            break
+        nx, ny, nz = 0.0, 0.0, 0.0
+        if dist > 0.0:
+            nx, ny, nz = dr / dist * rx, dy / dist, dr / dist * rz
+        sx = wgt * lx + (1.0 - wgt) * nx
+        sy = wgt * ly + (1.0 - wgt) * ny
+        sz = wgt * lz + (1.0 - wgt) * nz
+        sn = math.sqrt(sx * sx + sy * sy + sz * sz)
+        if sn > 0.0:
+            h = step * d / sn
+            x, y, z = x + h * sx, y + h * sy, z + h * sz
+    theta, dr, dy, rx, rz, d = _helico_locate(p, s, x, y, z)
+    return texel(p, tex, theta / u_period, _turn(dy, dr))
+
+
+@njit(cache=True, inline="always")
 def eval_point(code, params, boxes, x, y, z, mode, vs, ps):
     """Field at (x, y, z); mode 1 also leaves the gradient in vs[0, 1:4], mode 2 the gradient
     and the colour in vs[0, 4:7]."""
@@ -210,9 +339,13 @@ def eval_point(code, params, boxes, x, y, z, mode, vs, ps):
                     vs[sp, 1] = p[o] * gx + p[o + 4] * gy + p[o + 8] * gz
                     vs[sp, 2] = p[o + 1] * gx + p[o + 5] * gy + p[o + 9] * gz
                     vs[sp, 3] = p[o + 2] * gx + p[o + 6] * gy + p[o + 10] * gz
-                    vs[sp, 4] = DEFAULT_GREY
-                    vs[sp, 5] = DEFAULT_GREY
-                    vs[sp, 6] = DEFAULT_GREY
+                    if mode > 1 and code[i, 3] >= 0:  # field-interpolated texture
+                        tu, tv = _prim_uv(op, p, o, qx, qy, qz)
+                        vs[sp, 4], vs[sp, 5], vs[sp, 6] = texel(p, code[i, 3], tu, tv)
+                    else:
+                        vs[sp, 4] = DEFAULT_GREY
+                        vs[sp, 5] = DEFAULT_GREY
+                        vs[sp, 6] = DEFAULT_GREY
             sp += 1
             i += 1
         elif op == OP_BOX or op == OP_PUSHPT:
@@ -258,6 +391,12 @@ def eval_point(code, params, boxes, x, y, z, mode, vs, ps):
         elif op == OP_ZERO:
             _push_zero(vs, sp, mode)
             sp += 1
+            i += 1
+        elif op == OP_TEXBOUND:
+            t = sp - 1
+            if mode > 1 and vs[t, 0] > 0.0:
+                vs[t, 4], vs[t, 5], vs[t, 6] = _texbound(p, o, px, py, pz, vs[t, 1], vs[t, 2],
+                                                         vs[t, 3])
             i += 1
         else:
             k = code[i, 3]
@@ -476,7 +615,7 @@ def lipschitz_box(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, vs):
                 i = code[i, 2]
             else:
                 i += 1
-        elif op == OP_COLOR:
+        elif is_paint(op):
             i += 1
         elif op == OP_ZERO:
             vs[sp, 0] = 0.0

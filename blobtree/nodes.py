@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from . import geometry as geo
+from . import texture as tex
 from .fields import FALLOFFS, SLOPE, falloff_array
 
 if TYPE_CHECKING:
@@ -47,8 +48,9 @@ class Node:
     children: tuple[Node, ...] = ()
 
     # ----- maths each node supplies -------------------------------------------------------
-    def _ref(self, P: np.ndarray) -> Result:
-        """Reference (field, gradient, colour) at (N, 3) points in this node's coordinates."""
+    def _ref(self, P: np.ndarray, look: Any = None) -> Result:
+        """Reference (field, gradient, colour) at (N, 3) points in this node's coordinates;
+        ``look`` is the field-interpolated texture that paints the primitives below, if any."""
         raise NotImplementedError
 
     def _box(self, L: np.ndarray) -> geo.Box:
@@ -97,7 +99,7 @@ class Node:
 
     def reference(self, P: Any) -> Result:
         """(field, gradient, colour) by the plain-numpy reference evaluator."""
-        return self._ref(check_points(P))
+        return self._ref(check_points(P), None)
 
     # ----- building ---------------------------------------------------------------------------
     def __add__(self, other: Node) -> Blend:
@@ -152,6 +154,10 @@ class Node:
         """Give this subtree one colour (the texture map m with a constant texture)."""
         return Color(self, rgb)
 
+    def texture(self, image: Any, mapping: Any = "primitive", wrap: str = "repeat") -> Texture:
+        """2D texture map m: see :class:`Texture`."""
+        return Texture(self, image, mapping=mapping, wrap=wrap)
+
     def walk(self):
         """Every node of the tree, depth first (parents before children)."""
         stack = [self]
@@ -199,11 +205,19 @@ class Primitive(Node):
         r2 = self.radius**2
         return (d * d).sum(axis=1) / r2, 2.0 * d / r2
 
-    def _ref(self, P: np.ndarray) -> Result:
+    def _ref(self, P: np.ndarray, look: Any = None) -> Result:
         s, ds = self._s(P)
         f, df = falloff_array(self.falloff, s)
-        color = np.broadcast_to(np.asarray(DEFAULT_COLOR), P.shape).copy()
+        if look is None:
+            color = np.broadcast_to(np.asarray(DEFAULT_COLOR), P.shape).copy()
+        else:
+            color = look.paint(*self.uv(P))
         return f, df[:, None] * ds, color
+
+    def uv(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The primitive's own 2D parameterisation at local points (field-interpolated
+        texturing, the paper's ref. [10])."""
+        raise NotImplementedError
 
     def lipschitz(self) -> float:
         return SLOPE[self.falloff] / self.radius
@@ -228,6 +242,13 @@ class Point(Primitive):
 
     def _delta(self, q):
         return q - self.center
+
+    def uv(self, q):
+        """Spherical: u = longitude about +y, v = colatitude / pi."""
+        d = q - self.center
+        r = np.linalg.norm(d, axis=1)
+        cos_t = np.clip(d[:, 1] / np.where(r > 0.0, r, 1.0), -1.0, 1.0)
+        return tex.turn(-d[:, 2], d[:, 0]), np.arccos(cos_t) / np.pi
 
     def _box(self, L):
         c = L[:, :3] @ self.center + L[:, 3]
@@ -278,6 +299,14 @@ class Cone(Primitive):
             free, (2.0 * d2 / rt**3 * dr)[:, None] * ab / l2, 0.0
         )
         return s, ds
+
+    def uv(self, q):
+        """u = angle around the axis (from :func:`texture.perpendicular_frame`), v = t."""
+        ab = self.b - self.a
+        t = np.clip((q - self.a) @ ab / (ab @ ab), 0.0, 1.0)
+        d = q - (self.a + t[:, None] * ab)
+        e1, e2 = tex.perpendicular_frame(ab)
+        return tex.turn(d @ e2, d @ e1), t
 
     def _box(self, L):
         ends = []
@@ -336,6 +365,15 @@ class _Circular(Primitive):
         cx = np.where(rho > 0.0, q[:, 0] / safe, 1.0) * self.ring
         cz = np.where(rho > 0.0, q[:, 2] / safe, 0.0) * self.ring
         return rho, np.stack([cx, np.zeros_like(cx), cz], axis=1)
+
+    def uv(self, q):
+        """u = angle around +y; torus: v = angle around the tube; disc: v = radius / ring."""
+        d = q - self.center
+        rho = np.hypot(d[:, 0], d[:, 2])
+        u = tex.turn(-d[:, 2], d[:, 0])
+        if isinstance(self, Disc):
+            return u, np.minimum(rho / self.ring, 1.0)
+        return u, tex.turn(d[:, 1], rho - self.ring)
 
     def _box(self, L):
         c = L[:, :3] @ self.center + L[:, 3]
@@ -422,6 +460,13 @@ class Cylinder(Primitive):
         closest = self.a + np.clip(h, 0.0, length)[:, None] * u + scale[:, None] * radial
         return q - closest
 
+    def uv(self, q):
+        """u = angle around the axis, v = height along it / length."""
+        axis = self.b - self.a
+        w = q - self.a
+        e1, e2 = tex.perpendicular_frame(axis)
+        return tex.turn(w @ e2, w @ e1), np.clip(w @ axis / (axis @ axis), 0.0, 1.0)
+
     def _box(self, L):
         u = (self.b - self.a) / np.linalg.norm(self.b - self.a)
         rows = L[:, :3]
@@ -464,9 +509,9 @@ class Operator(Node):
             )
         self.children = tuple(_require_node(f"children[{i}]", c) for i, c in enumerate(children))
 
-    def _refs(self, P) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _refs(self, P, look) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Children's results stacked: f (k, N), g (k, N, 3), c (k, N, 3)."""
-        rs = [c._ref(P) for c in self.children]
+        rs = [c._ref(P, look) for c in self.children]
         return (np.stack([r[0] for r in rs]), np.stack([r[1] for r in rs]),
                 np.stack([r[2] for r in rs]))
 
@@ -499,8 +544,8 @@ class Blend(Operator):
 
     TYPE = "blend"
 
-    def _ref(self, P):
-        f, g, c = self._refs(P)
+    def _ref(self, P, look=None):
+        f, g, c = self._refs(P, look)
         return f.sum(axis=0), g.sum(axis=0), _weighted_color(f, c)
 
 
@@ -516,8 +561,8 @@ class SuperBlend(Operator):
         if self.n < 1.0:
             raise ValueError(f"n must be >= 1 (n = 1 is the plain blend), got {n!r}")
 
-    def _ref(self, P):
-        f, g, c = self._refs(P)
+    def _ref(self, P, look=None):
+        f, g, c = self._refs(P, look)
         m = f.max(axis=0)
         safe = np.where(m > 0.0, m, 1.0)
         w = (f / safe) ** self.n  # weights f_i^n / m^n, in [0, 1]
@@ -535,8 +580,8 @@ class Union(Operator):
 
     TYPE = "union"
 
-    def _ref(self, P):
-        f, g, c = self._refs(P)
+    def _ref(self, P, look=None):
+        f, g, c = self._refs(P, look)
         i = np.argmax(f, axis=0)
         return f.max(axis=0), _pick(i, g), _pick(i, c)
 
@@ -549,8 +594,8 @@ class Intersection(Operator):
 
     TYPE = "intersection"
 
-    def _ref(self, P):
-        f, g, c = self._refs(P)
+    def _ref(self, P, look=None):
+        f, g, c = self._refs(P, look)
         i = np.argmin(f, axis=0)
         return f.min(axis=0), _pick(i, g), _pick(i, c)
 
@@ -567,8 +612,8 @@ class Difference(Operator):
     TYPE = "difference"
     MIN_CHILDREN = 2
 
-    def _ref(self, P):
-        f, g, c = self._refs(P)
+    def _ref(self, P, look=None):
+        f, g, c = self._refs(P, look)
         f = np.concatenate([f[:1], 2.0 * ISO - f[1:]])
         g = np.concatenate([g[:1], -g[1:]])
         i = np.argmin(f, axis=0)
@@ -615,8 +660,8 @@ class ControlledBlend(Operator):
         paired = {i for p in self.pairs for i in p}
         self.singles = tuple(i for i in range(m) if i not in paired)
 
-    def _ref(self, P):
-        f, g, c = self._refs(P)
+    def _ref(self, P, look=None):
+        f, g, c = self._refs(P, look)
         cand_f, cand_g, cand_c = [], [], []
         for i, j in self.pairs:
             cand_f.append(f[i] + f[j])
@@ -659,9 +704,9 @@ class Affine(Unary):
     def inverse(self) -> np.ndarray:
         return geo.invert(self.matrix)
 
-    def _ref(self, P):
+    def _ref(self, P, look=None):
         inv = self.inverse
-        f, g, c = self.child._ref(geo.apply(inv, P))
+        f, g, c = self.child._ref(geo.apply(inv, P), look)
         return f, g @ inv[:, :3], c
 
     def _box(self, L):
@@ -745,7 +790,7 @@ class Warp(Unary):
     def own_box(self) -> geo.Box:
         raise NotImplementedError
 
-    def _ref(self, P):
+    def _ref(self, P, look=None):
         lo, hi = self.own_box
         inside = np.all((P >= lo) & (P <= hi), axis=1)
         f = np.zeros(len(P))
@@ -753,7 +798,7 @@ class Warp(Unary):
         c = np.broadcast_to(np.asarray(DEFAULT_COLOR), P.shape).copy()
         if inside.any():
             q, jac = self.warp_points(P[inside])
-            fc, gc, cc = self.child._ref(q)
+            fc, gc, cc = self.child._ref(q, look)
             f[inside] = fc
             g[inside] = np.einsum("nij,ni->nj", jac, gc)
             c[inside] = cc
@@ -993,8 +1038,8 @@ class Color(Unary):
         if np.any(self.rgb < 0.0) or np.any(self.rgb > 1.0):
             raise ValueError(f"rgb components must lie in [0, 1], got {tuple(self.rgb)}")
 
-    def _ref(self, P):
-        f, g, _ = self.child._ref(P)
+    def _ref(self, P, look=None):
+        f, g, _ = self.child._ref(P, look)
         return f, g, np.broadcast_to(self.rgb, P.shape).copy()
 
     def _box(self, L):
@@ -1005,6 +1050,50 @@ class Color(Unary):
 
     def params(self):
         return {"rgb": self.rgb.tolist()}
+
+
+class Texture(Unary):
+    """The 2D texture-map operator m (Section 3.4) with one of the paper's two methods:
+    ``mapping="primitive"`` (field-interpolated: each primitive below uses its own (u, v)) or a
+    :class:`texture.HelicoSurface` (bounding surface).  ``image``: a PNG/JPEG path, an (H, W, 3)
+    array (uint8, or floats in [0, 1]) or a function of (u, v) arrays returning (..., 3) colours.
+
+    Which paint wins: colour nodes and bounding-surface textures paint their whole subtree (the
+    outermost wins); a field-interpolated texture paints the primitives below it that no nearer
+    field-interpolated texture paints."""
+
+    TYPE = "texture"
+
+    def __init__(self, child: Node, image: tex.TextureSource, mapping: Any = "primitive",
+                 wrap: str = "repeat") -> None:
+        super().__init__(child)
+        self.image = image if isinstance(image, np.ndarray) and image.dtype == np.uint8 \
+            and image.ndim == 3 and image.shape[2] == 3 else tex.load_image(image)
+        self.mapping = tex.parse_mapping(mapping)
+        if wrap not in tex.WRAPS:
+            raise ValueError(f"wrap must be one of {sorted(tex.WRAPS)}, got {wrap!r}")
+        self.wrap = wrap
+
+    def paint(self, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """Texture colours at (u, v)."""
+        return tex.sample(self.image, u, v, self.wrap)
+
+    def _ref(self, P, look=None):
+        if self.mapping == "primitive":
+            return self.child._ref(P, self)
+        f, g, _ = self.child._ref(P, look)
+        return f, g, self.paint(*self.mapping.uv(P, g))
+
+    def _box(self, L):
+        return self.child._box(L)
+
+    def lipschitz(self):
+        return self.child.lipschitz()
+
+    def params(self):
+        mapping = self.mapping if self.mapping == "primitive" else {
+            "helico": self.mapping.to_dict()}
+        return {"image": tex.image_to_text(self.image), "mapping": mapping, "wrap": self.wrap}
 
 
 # ============================================================================================
@@ -1045,5 +1134,5 @@ NODE_TYPES: dict[str, type[Node]] = {
     cls.TYPE: cls
     for cls in (Point, Segment, Cone, Torus, Disc, Cylinder, Blend, SuperBlend, Union,
                 Intersection, Difference, ControlledBlend, Translate, Scale, Rotate, Bend,
-                Twist, Taper, Color)
+                Twist, Taper, Color, Texture)
 }

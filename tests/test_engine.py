@@ -121,7 +121,7 @@ def test_engine_skips_far_subtrees():
 @given(trees(), st.integers(0, 2**31))
 def test_specialised_cells_equal_reference(tree, seed):
     """Large batches run per-cell specialised programs (specialize.py): still exact."""
-    from blobtree.compile import BINNED_MIN
+    from blobtree.compile import GRID_MIN_POINTS as BINNED_MIN
 
     P = sample_points(tree, BINNED_MIN + 5000, seed)
     f, g, c = tree.program().evaluate(P)

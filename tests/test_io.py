@@ -11,6 +11,7 @@ from hypothesis import strategies as st
 
 import blobtree as bt
 from blobtree.io import SceneError, dumps, loads
+from blobtree.texture import HelicoSurface
 from tests.trees import sample_points, trees
 
 
@@ -36,6 +37,8 @@ def test_every_node_type_round_trips(tmp_path):
         bt.controlled_blend([a, a, a], pairs=[(0, 1), (1, 2)]),
         a.rotate("x", 30).rotate((1, 1, 0), 12.5), parts[2].bend(30, 1.0).twist(20).taper(0.1),
         a.color((0.1, 0.2, 0.3)),
+        a.texture(np.arange(24, dtype=np.uint8).reshape(2, 4, 3), wrap="clamp"),
+        a.texture(lambda u, v: np.stack([u, v, u * v], -1), mapping=HelicoSurface(u_period=90)),
     )
     assert {n.TYPE for n in tree.walk()} == set(bt.nodes.NODE_TYPES)
     path = tmp_path / "scene.json"

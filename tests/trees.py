@@ -6,6 +6,8 @@ import numpy as np
 from hypothesis import strategies as st
 
 import blobtree as bt
+from blobtree.spiral import HelicoSpiral
+from blobtree.texture import HelicoSurface
 
 coord = st.floats(-1.0, 1.0, allow_nan=False)
 vec = st.tuples(coord, coord, coord)
@@ -76,7 +78,7 @@ def _unary(children):
     def make(d):
         c = d(children)
         kind = d(st.sampled_from(["translate", "scale", "scale3", "rotate", "bend", "twist",
-                                  "taper", "color"]))
+                                  "taper", "color", "texture"]))
         if kind == "translate":
             return c.translate(*d(vec))
         if kind == "scale":
@@ -102,6 +104,14 @@ def _unary(children):
             lo, hi = c.bounds()
             ext = max(abs(lo["xyz".index(axis)]), abs(hi["xyz".index(axis)]), 0.1)
             return c.taper(d(st.floats(-0.5, 0.5)) / ext, axis=axis)
+        if kind == "texture":
+            img = np.random.default_rng(d(st.integers(0, 99))).integers(0, 256, (3, 5, 3))
+            mapping = d(st.sampled_from(["primitive", "helico"]))
+            if mapping == "helico":
+                mapping = HelicoSurface(spiral=HelicoSpiral(r0=0.3), radius_factor=1.0,
+                                        theta_max=720.0, max_steps=8)
+            return c.texture(img.astype(np.uint8), mapping=mapping,
+                             wrap=d(st.sampled_from(["repeat", "clamp"])))
         return c.color(d(st.tuples(*[st.floats(0.0, 1.0)] * 3)))
 
     return make()

@@ -1,0 +1,51 @@
+"""The logarithmic helico-spiral of shells (paper Section 2.1, Eqs. 1-3)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class HelicoSpiral:
+    """Eqs. 1-3 with the parameters of Eq. 7 as defaults (beta 22.5 deg, rho 1.3, R0 0.2)."""
+
+    beta: float = 22.5
+    rho: float = 1.3
+    r0: float = 0.2
+    #: D / R; None computes it from Eq. 3.  Eq. 7 rounds it to 0.341 for the Murex model.
+    d_ratio: float | None = None
+
+    def __post_init__(self) -> None:
+        if not (0.0 < self.beta < 90.0):
+            raise ValueError(f"beta must be in (0, 90) degrees, got {self.beta!r}")
+        if not (self.rho > 1.0 and math.isfinite(self.rho)):
+            raise ValueError(f"rho must be a finite number > 1, got {self.rho!r}")
+        if not (self.r0 > 0.0 and math.isfinite(self.r0)):
+            raise ValueError(f"r0 must be a finite number > 0, got {self.r0!r}")
+
+    def radius(self, theta: float) -> float:
+        """Eq. 1: R(theta) = R0 rho^(theta / 360), theta in degrees."""
+        return self.r0 * self.rho ** (theta / 360.0)
+
+    def height(self, theta: float) -> float:
+        """Eq. 2: H(theta) = R(theta) cot(beta)."""
+        return self.radius(theta) / math.tan(math.radians(self.beta))
+
+    def size(self, theta: float) -> float:
+        """Eq. 3: D(theta) = R(theta) / sin(beta) * (rho - 1) / (rho + 1) (= 0.341 R for Eq. 7)."""
+        return self.d_over_r * self.radius(theta)
+
+    @property
+    def d_over_r(self) -> float:
+        """D / R (Eq. 3, or the rounded value of Eq. 7)."""
+        if self.d_ratio is not None:
+            return self.d_ratio
+        b = math.radians(self.beta)
+        return (self.rho - 1.0) / (self.rho + 1.0) / math.sin(b)
+
+    def centre(self, theta: float) -> tuple[float, float, float]:
+        """The spiral point at theta: (R, H, 0) turned by theta about y (Eq. 8's placement)."""
+        r, t = self.radius(theta), math.radians(theta)
+        return r * math.cos(t), self.height(theta), -r * math.sin(t)
+
