@@ -130,7 +130,7 @@ def shade(code, params, boxes, lips, local_code, local_boxes, px, py, pz, vx, vy
             t0, t1 = clip_box(sx, sy, sz, lx, ly, lz, lo, hi, 0.0, dist)
             if t0 <= t1:
                 if trace(code, params, boxes, lips, sx, sy, sz, lx, ly, lz, t0, t1,
-                         0.1 * shadow_eps, 0.0, 0.05 * (t1 - t0) + shadow_eps,
+                         0.5 * shadow_eps, 0.0, 0.05 * (t1 - t0) + shadow_eps,
                          vstack, pstack) >= 0.0:
                     continue
         hx, hy, hz = lx - vx, ly - vy, lz - vz

@@ -196,7 +196,8 @@ def _pixel(code, params, boxes, lips, local, cam, lights, lo, hi, width, height,
         hits += 1
         shade(code, params, boxes, lips, lcode if inside else code, lboxes if inside else boxes,
               cam[0] + t * dx, cam[1] + t * dy, cam[2] + t * dz, dx, dy, dz, lights, lo, hi,
-              shadows, ambient, specular, shininess, shadow_eps, rgb, vstack, pstack)
+              shadows, ambient, specular, shininess, max(shadow_eps, eps_rel * t), rgb, vstack,
+              pstack)
         acc_r += rgb[0]
         acc_g += rgb[1]
         acc_b += rgb[2]
