@@ -1,4 +1,4 @@
-"""Ray-surface intersection by segment tracing (Galin, Gueerin, Paris, Peytavie, CGF 2020).
+"""Ray-surface intersection by segment tracing (Galin, Guerin, Paris, Peytavie, CGF 2020).
 
 Along a ray p(t) = o + t d the tracer keeps a candidate segment [t, t + delta].  The engine bounds
 the field's gradient over the segment's bounding box (``kernels.lipschitz_box``); with that local
@@ -7,7 +7,8 @@ step is safe.  The next candidate segment is ``GROWTH`` times the step just take
 support boxes miss the segment, L is 0 and the whole segment is skipped.  Steps never fall below
 ``eps`` (a feature thinner than eps along the ray may be skipped: eps is a fraction of a pixel for
 camera rays), and once a step lands inside (f >= 0.5) the root is refined by the Illinois variant
-of regula falsi, which keeps the root bracketed.
+of regula falsi, which keeps the root bracketed.  :func:`march_cone` applies the same bound to a
+whole cone of camera rays at once, so a block of pixels skips empty space together.
 
 All kernels take the program arrays ``code, params, boxes, lips`` of ``Program.arrays`` and the
 per-thread scratch of ``kernels.scratch``.
@@ -25,7 +26,7 @@ ISO = 0.5
 GROWTH = 1.5
 #: Regula-falsi iterations after a bracket is found (the bracket shrinks superlinearly).
 REFINE_ITERS = 24
-#: Refinement stops at a bracket this fraction of the smallest step.
+#: Refinement stops once the root is located to this fraction of the smallest step.
 REFINE_TOL = 1e-3
 
 
