@@ -15,7 +15,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from .fields import falloff, falloff_ds
+from .fields import SLOPE_BY_ID, falloff, falloff_ds
 
 # Opcodes (code[i, 0]).  Primitives first: every op <= OP_CYLINDER is a primitive.
 OP_POINT, OP_CONE, OP_TORUS, OP_DISC, OP_CYLINDER = 0, 1, 2, 3, 4
@@ -540,6 +540,55 @@ def _misses(boxes, i, lox, loy, loz, hix, hiy, hiz):
             or lox > boxes[i, 3] or loy > boxes[i, 4] or loz > boxes[i, 5])
 
 
+def _slope_peak(fid: int) -> float:
+    """r/R where falloff ``fid`` is steepest: its slope |df/dr| R = 2 (r/R) |f'(s)| rises from 0
+    at the skeleton to one peak and falls to 0 at R (ternary search)."""
+    lo, hi = 0.0, 1.0
+    for _ in range(200):
+        a, b = lo + (hi - lo) / 3.0, hi - (hi - lo) / 3.0
+        if abs(falloff_ds(fid, a * a)) * a < abs(falloff_ds(fid, b * b)) * b:
+            lo = a
+        else:
+            hi = b
+    return lo
+
+
+#: Per falloff id: where the slope peaks (r/R), and the peak slope |df/dr| R.
+SLOPE_PEAK = np.array([_slope_peak(fid) for fid in range(len(SLOPE_BY_ID))])
+PEAK_SLOPE = np.array([2.0 * r * abs(falloff_ds(fid, r * r)) for fid, r in enumerate(SLOPE_PEAK)])
+
+
+@njit(cache=True)
+def _point_slope(p, o, lox, loy, loz, hix, hiy, hiz):
+    """The point primitive's steepest slope over the world box, as a fraction of its peak slope.
+
+    Segment tracing's distance-aware bound (Galin et al. 2020, ``BlobTreePoint::K``): the box,
+    mapped to the local frame (as the box around its image), spans distances [dmin, dmax] from
+    the centre, and the unimodal falloff slope is largest there at the point nearest its peak.
+    """
+    cx, cy, cz = 0.5 * (lox + hix), 0.5 * (loy + hiy), 0.5 * (loz + hiz)
+    ex, ey, ez = 0.5 * (hix - lox), 0.5 * (hiy - loy), 0.5 * (hiz - loz)
+    h = o + PRIM_HEADER
+    dmin2 = 0.0
+    dmax2 = 0.0
+    for r in range(3):
+        a0, a1, a2 = p[o + 4 * r], p[o + 4 * r + 1], p[o + 4 * r + 2]
+        # local box: centre A c + t, half extent |A| e; offset from the skeleton point
+        off = a0 * cx + a1 * cy + a2 * cz + p[o + 4 * r + 3] - p[h + r]
+        half = abs(a0) * ex + abs(a1) * ey + abs(a2) * ez
+        gap = max(abs(off) - half, 0.0)
+        far = abs(off) + half
+        dmin2 += gap * gap
+        dmax2 += far * far
+    radius = p[o + 12]
+    fid = int(p[o + 13])
+    rmin = math.sqrt(dmin2) / radius
+    if rmin >= 1.0:
+        return 0.0
+    r = min(max(SLOPE_PEAK[fid], rmin), math.sqrt(dmax2) / radius)
+    return 2.0 * r * abs(_fo_ds(fid, r * r)) / PEAK_SLOPE[fid]
+
+
 @njit(cache=True)
 def lipschitz_box(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, vs):
     """A bound on |grad f| over the box [lo, hi] (world coordinates): the tree's Lipschitz rules
@@ -550,7 +599,13 @@ def lipschitz_box(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, vs):
     while i < n:
         op = code[i, 0]
         if op <= OP_CYLINDER or op == OP_PUSHPT:
-            vs[sp, 0] = 0.0 if _misses(boxes, i, lox, loy, loz, hix, hiy, hiz) else lips[i]
+            if _misses(boxes, i, lox, loy, loz, hix, hiy, hiz):
+                vs[sp, 0] = 0.0
+            elif op == OP_POINT:
+                vs[sp, 0] = lips[i] * _point_slope(params, code[i, 1], lox, loy, loz, hix, hiy,
+                                                   hiz)
+            else:
+                vs[sp, 0] = lips[i]
             sp += 1
             i = i + 1 if op != OP_PUSHPT else code[i, 2]
         elif op == OP_BOX:

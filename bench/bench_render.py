@@ -1,0 +1,162 @@
+"""Benchmark: the direct ray tracer against POV-Ray's blob on the whorl126 scene (issue 4).
+
+Renders whorl126 at 800x800 and 1600x1600 (one light, no shadows, no anti-aliasing, the same
+framing) with POV-Ray and with blobtree, both as whole processes from the command line, and with
+blobtree also in-process after warm-up.  Prints times and ratios, the numba compile cost (a run
+with an empty cache), and saves the two images side by side.
+
+    python bench/bench_render.py [--sizes 800,1600] [--repeat 3] [--out bench/out]
+
+POV-Ray's blob component field is strength (1 - r^2/radius^2)^2.  With radius 2D it is
+strength * (3/4)^2 = 0.5625 strength at r = D, so strength 0.5 / 0.5625 puts the 0.5 iso-surface
+of a lone component at r = D, the visible radius of our Point(radius=2).scale(D).  Our scene is
+right-handed and POV-Ray's left-handed: mirroring z in both scene and camera gives the same image.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+from PIL import Image
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+import blobtree as bt  # noqa: E402
+from blobtree.models.helico import MUREX_SPIRAL  # noqa: E402
+from blobtree.models.whorl import THETA_S  # noqa: E402
+from blobtree.render import Camera, render  # noqa: E402
+from blobtree.render.camera import default_camera  # noqa: E402
+from blobtree.render.shade import default_lights  # noqa: E402
+
+ALBEDO = 0.8  # blobtree's default grey, an sRGB value
+
+
+def whorl_centres() -> tuple[np.ndarray, np.ndarray]:
+    """Centres and visible radii D of the 126 instances (Eq. 8 applied to the origin)."""
+    centres, sizes = [], []
+    for i in range(126):
+        theta = i * THETA_S
+        r, h, d = (MUREX_SPIRAL.radius(theta), MUREX_SPIRAL.height(theta),
+                   MUREX_SPIRAL.size(theta))
+        a = math.radians(theta)  # right-hand rotation about y of (r, h, 0)
+        centres.append((r * math.cos(a), h, -r * math.sin(a)))
+        sizes.append(d)
+    return np.array(centres), np.array(sizes)
+
+
+def pov_scene(camera: Camera, light_dir: np.ndarray, width: int, height: int) -> str:
+    """The POV-Ray scene: one blob, camera and parallel light, with z mirrored."""
+    def v(p) -> str:
+        return f"<{p[0]:.9g}, {p[1]:.9g}, {-p[2]:.9g}>"
+
+    aspect = width / height
+    hfov = math.degrees(2 * math.atan(math.tan(math.radians(camera.fov) / 2) * aspect))
+    target = np.array(camera.target)
+    lin = ((ALBEDO + 0.055) / 1.055) ** 2.4
+    centres, sizes = whorl_centres()
+    comps = "\n".join(f"  sphere {{ {v(c)}, {2 * d:.9g}, {0.5 / 0.5625:.9g} }}"
+                      for c, d in zip(centres, sizes, strict=True))
+    return f"""#version 3.7;
+global_settings {{ assumed_gamma 1.0 ambient_light rgb 1 }}
+background {{ rgb 1 }}
+camera {{ perspective location {v(camera.eye)} look_at {v(target)} sky y
+         up y right x * {aspect:.9g} angle {hfov:.9g} }}
+light_source {{ {v(target - 1000.0 * light_dir)} color rgb 1 parallel point_at {v(target)}
+               shadowless }}
+blob {{ threshold 0.5
+{comps}
+  pigment {{ rgb {lin:.6g} }}
+  finish {{ ambient 0.12 diffuse 1 specular 0.25 roughness 0.025 }}
+}}
+"""
+
+
+def timed(cmd: list[str], env: dict | None = None) -> float:
+    """Wall time of a whole process (raises if it fails)."""
+    start = time.perf_counter()
+    subprocess.run(cmd, check=True, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    return time.perf_counter() - start
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--sizes", default="800,1600")
+    ap.add_argument("--repeat", type=int, default=3, help="best of this many runs")
+    ap.add_argument("--out", default=str(ROOT / "bench" / "out"))
+    args = ap.parse_args()
+    sizes = [int(s) for s in args.sizes.split(",")]
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    povray = shutil.which("povray")
+    if povray is None:
+        sys.exit("povray not found: apt-get install -y povray")
+
+    prog = bt.models.whorl126().program()
+    centres, _ = whorl_centres()
+    assert np.all(prog.field(centres) > 0.99), "POV-Ray centres do not match whorl126"
+    camera = default_camera(prog, 800, 800)  # square images share this framing
+    light_dir = np.array(default_lights(camera)[0].direction)
+    cam_opts = ["--eye", ",".join(map(repr, camera.eye)),
+                "--target", ",".join(map(repr, camera.target)), "--fov", repr(camera.fov)]
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    cache = tempfile.mkdtemp(prefix="blobtree-numba-")
+    env["NUMBA_CACHE_DIR"] = cache
+
+    def ours(size: int, path: Path) -> list[str]:
+        return [sys.executable, "-m", "blobtree.cli.main", "render", "whorl126", "-o", str(path),
+                "--size", f"{size}x{size}", "--no-shadows", "--quiet", *cam_opts]
+
+    rows = []
+    cold = timed(ours(sizes[0], out / "cold.png"), env)  # empty numba cache: compiles
+    for size in sizes:
+        pov_file = out / f"whorl126_{size}.pov"
+        pov_file.write_text(pov_scene(camera, light_dir, size, size))
+        pov_png = out / f"whorl126_{size}_povray.png"
+        our_png = out / f"whorl126_{size}_blobtree.png"
+        pov_cmd = [povray, f"+I{pov_file}", f"+O{pov_png}", f"+W{size}", f"+H{size}", "-D", "-A",
+                   "+FN", "-GA", "File_Gamma=sRGB", f"+WT{os.cpu_count()}"]
+        t_pov = min(timed(pov_cmd) for _ in range(args.repeat))
+        t_cli = min(timed(ours(size, our_png), env) for _ in range(args.repeat))
+        render(prog, 64, 64, camera=camera, shadows=False)  # warm-up (compiled, cached)
+        t_in = math.inf
+        for _ in range(args.repeat):
+            start = time.perf_counter()
+            img = render(prog, size, size, camera=camera, shadows=False)
+            t_in = min(t_in, time.perf_counter() - start)
+        assert (img == np.asarray(Image.open(our_png))).all(), "CLI and in-process images differ"
+        side = np.concatenate([np.asarray(Image.open(pov_png).convert("RGB")), img], axis=1)
+        Image.fromarray(side).save(out / f"whorl126_{size}_povray_vs_blobtree.png")
+        rows.append((size, t_pov, t_cli, t_in))
+    shutil.rmtree(cache, ignore_errors=True)
+
+    print(f"whorl126, 1 light, no shadows, no AA; best of {args.repeat}; {os.cpu_count()} cores")
+    print(f"{'size':>10} {'POV-Ray':>9} {'blobtree CLI':>13} {'ratio':>6} "
+          f"{'in-process':>11} {'ratio':>6}")
+    for size, t_pov, t_cli, t_in in rows:
+        print(f"{size:>5}x{size:<4} {t_pov:>8.2f}s {t_cli:>12.2f}s {t_cli / t_pov:>6.2f} "
+              f"{t_in:>10.3f}s {t_in / t_pov:>6.2f}")
+    warm = next(t_cli for size, _, t_cli, _ in rows if size == sizes[0])
+    print(f"numba compile cost (first run, empty cache): {cold:.2f}s - {warm:.2f}s = "
+          f"{cold - warm:.2f}s")
+    bars = {1600: ("CLI", 1.0), 800: ("in-process", 0.5)}
+    for size, t_pov, t_cli, t_in in rows:
+        if size in bars:
+            kind, limit = bars[size]
+            ratio = (t_cli if kind == "CLI" else t_in) / t_pov
+            verdict = "PASS" if ratio <= limit else "FAIL"
+            print(f"bar {size}: {kind} <= {limit}x POV-Ray: {ratio:.2f}x {verdict}")
+    print(f"images: {out}")
+
+
+if __name__ == "__main__":
+    main()

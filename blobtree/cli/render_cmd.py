@@ -1,0 +1,83 @@
+"""``blobtree render SCENE -o out.png``: ray-trace a scene to an image."""
+
+from __future__ import annotations
+
+import sys
+import time
+
+import click
+
+from ..render import Camera, save_image
+from ..render import render as render_image
+from ..render.camera import default_camera
+from .scenes import resolve_scene
+
+
+def _floats(n: int):
+    """A click callback parsing ``"a,b,c"`` into a tuple of n floats (None stays None)."""
+
+    def parse(ctx, param, value):
+        if value is None:
+            return None
+        try:
+            out = tuple(float(v) for v in value.split(","))
+        except ValueError:
+            out = ()
+        if len(out) != n:
+            raise click.BadParameter(f"expected {n} comma-separated numbers, got {value!r}")
+        return out
+
+    return parse
+
+
+def _size(ctx, param, value):
+    try:
+        w, h = (int(v) for v in value.lower().split("x"))
+    except ValueError:
+        raise click.BadParameter(f"expected WIDTHxHEIGHT such as 800x600, got {value!r}") from None
+    return w, h
+
+
+@click.command("render")
+@click.argument("scene")
+@click.option("-o", "--output", default="render.png", show_default=True,
+              help="Image file (.png, .jpg, .tif, .bmp, .ppm); written whole or not at all.")
+@click.option("--size", default="800x800", show_default=True, callback=_size,
+              help="Image size WIDTHxHEIGHT in pixels.")
+@click.option("--samples", default=1, show_default=True, help="Rays per pixel (anti-aliasing).")
+@click.option("--eye", callback=_floats(3), help="Camera position x,y,z (default: framed view).")
+@click.option("--target", callback=_floats(3), help="Point looked at x,y,z.")
+@click.option("--up", default="0,1,0", show_default=True, callback=_floats(3),
+              help="Camera up vector x,y,z.")
+@click.option("--fov", type=float, default=None, help="Vertical field of view, degrees.")
+@click.option("--no-shadows", is_flag=True, help="Skip shadow rays.")
+@click.option("--background", default="1,1,1", show_default=True, callback=_floats(3),
+              help="Background colour r,g,b in [0, 1].")
+@click.option("--tile", default=64, show_default=True, help="Tile side in pixels.")
+@click.option("--quiet", is_flag=True, help="No progress bar or timing.")
+def render(scene, output, size, samples, eye, target, up, fov, no_shadows, background, tile,
+           quiet) -> None:
+    """Ray-trace SCENE (a built-in model name or a JSON scene file) into an image."""
+    width, height = size
+    start = time.perf_counter()
+    try:
+        tree = resolve_scene(scene)
+        prog = tree.program()
+        camera = None
+        if eye is not None or target is not None or fov is not None:
+            if eye is None or target is None or fov is None:
+                framed = default_camera(prog, width, height)
+                eye, target = eye or framed.eye, target or framed.target
+                fov = framed.fov if fov is None else fov
+            camera = Camera(eye=eye, target=target, up=up, fov=fov)
+        img = render_image(prog, width, height, camera=camera, samples=samples,
+                           shadows=not no_shadows, background=background, tile=tile,
+                           progress=not quiet)
+        save_image(img, output)
+    except ValueError as exc:
+        raise click.ClickException(str(exc)) from None
+    except KeyboardInterrupt:
+        click.echo("interrupted; nothing written", err=True)
+        sys.exit(130)
+    if not quiet:
+        click.echo(f"{output}: {width}x{height}, {time.perf_counter() - start:.2f} s", err=True)

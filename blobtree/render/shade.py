@@ -1,0 +1,148 @@
+"""Lights and shading: Blinn-Phong with hard shadows, in linear RGB, encoded to sRGB at the end."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from .. import kernels
+from .camera import Camera, as_color, as_vec3
+from .trace import clip_box, trace
+
+#: Row layout of the packed light array: kind (0 directional, 1 point), xyz, linear rgb.
+DIRECTIONAL, POINT = 0.0, 1.0
+
+
+@dataclass(frozen=True)
+class Light:
+    """A light: ``direction`` (the way the light travels, e.g. (0, -1, 0) shines straight down)
+    or ``position`` (a point light, no falloff), with an RGB ``color`` in [0, 1] and an
+    ``intensity`` multiplier."""
+
+    direction: tuple[float, float, float] | None = None
+    position: tuple[float, float, float] | None = None
+    color: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    intensity: float = 1.0
+
+    def __post_init__(self) -> None:
+        if (self.direction is None) == (self.position is None):
+            raise ValueError(
+                f"Light needs exactly one of direction or position, got direction="
+                f"{self.direction!r}, position={self.position!r}"
+            )
+        if self.direction is not None:
+            d = as_vec3("direction", self.direction)
+            if not np.linalg.norm(d) > 0.0:
+                raise ValueError(f"direction must be a non-zero vector, got {self.direction!r}")
+        else:
+            as_vec3("position", self.position)
+        as_color("color", self.color)
+        if not (math.isfinite(self.intensity) and self.intensity >= 0.0):
+            raise ValueError(f"intensity must be a finite number >= 0, got {self.intensity!r}")
+
+    def packed(self) -> np.ndarray:
+        """The light as one kernel row: kind, toward-light direction (unit) or position, rgb."""
+        rgb = srgb_to_linear_array(as_color("color", self.color)) * self.intensity
+        if self.direction is not None:
+            d = -as_vec3("direction", self.direction)
+            return np.concatenate([[DIRECTIONAL], d / np.linalg.norm(d), rgb])
+        return np.concatenate([[POINT], as_vec3("position", self.position), rgb])
+
+
+def default_lights(camera: Camera) -> list[Light]:
+    """One white key light from above, to the left of and behind the camera."""
+    fwd, right, up = camera.basis()
+    toward = -fwd * 1.0 - right * 0.7 + up * 0.8
+    return [Light(direction=tuple(-toward / np.linalg.norm(toward)))]
+
+
+def pack_lights(lights: list[Light]) -> np.ndarray:
+    """(n, 7) float64 array of the lights for the kernels."""
+    if len(lights) == 0:
+        return np.zeros((0, 7))
+    for i, light in enumerate(lights):
+        if not isinstance(light, Light):
+            raise ValueError(f"lights[{i}] must be a blobtree Light, got {light!r}")
+    return np.stack([light.packed() for light in lights])
+
+
+def srgb_to_linear_array(c: np.ndarray) -> np.ndarray:
+    """sRGB-encoded [0, 1] values to linear light (IEC 61966-2-1)."""
+    c = np.asarray(c, dtype=np.float64)
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+@njit(cache=True)
+def srgb_to_linear(c):
+    """Scalar version of :func:`srgb_to_linear_array`."""
+    return c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4
+
+
+@njit(cache=True)
+def linear_to_srgb_byte(c):
+    """Linear [0, 1] (clamped) to an 8-bit sRGB value, rounded."""
+    c = min(max(c, 0.0), 1.0)
+    s = 12.92 * c if c <= 0.0031308 else 1.055 * c ** (1.0 / 2.4) - 0.055
+    return np.uint8(int(s * 255.0 + 0.5))
+
+
+@njit(cache=True)
+def shade(code, params, boxes, lips, local_code, local_boxes, px, py, pz, vx, vy, vz, lights,
+          lo, hi, shadows, ambient, specular, shininess, shadow_eps, out, vstack, pstack):
+    """Linear RGB at surface point p seen along view direction v (unit, toward the surface),
+    written into out[0:3].  Normal and albedo come from ``local_code, local_boxes`` (a program
+    specialised to a region around p, or the full one); shadow rays use the full program."""
+    kernels.eval_point(local_code, params, local_boxes, px, py, pz, 2, vstack, pstack)
+    # The field decreases outward, so the outward normal is -grad f.
+    nx, ny, nz = -vstack[0, 1], -vstack[0, 2], -vstack[0, 3]
+    nn = np.sqrt(nx * nx + ny * ny + nz * nz)
+    if nn > 0.0:
+        nx, ny, nz = nx / nn, ny / nn, nz / nn
+    else:
+        nx, ny, nz = -vx, -vy, -vz
+    ar = srgb_to_linear(min(max(vstack[0, 4], 0.0), 1.0))
+    ag = srgb_to_linear(min(max(vstack[0, 5], 0.0), 1.0))
+    ab = srgb_to_linear(min(max(vstack[0, 6], 0.0), 1.0))
+    r = ambient * ar
+    g = ambient * ag
+    b = ambient * ab
+    for k in range(lights.shape[0]):
+        if lights[k, 0] == DIRECTIONAL:
+            lx, ly, lz = lights[k, 1], lights[k, 2], lights[k, 3]
+            dist = np.inf
+        else:
+            lx, ly, lz = lights[k, 1] - px, lights[k, 2] - py, lights[k, 3] - pz
+            dist = np.sqrt(lx * lx + ly * ly + lz * lz)
+            if dist == 0.0:
+                continue
+            lx, ly, lz = lx / dist, ly / dist, lz / dist
+        ndl = nx * lx + ny * ly + nz * lz
+        if ndl <= 0.0:
+            continue
+        if shadows:
+            # Start the shadow ray off the surface along the normal, so it cannot re-hit it.
+            sx = px + shadow_eps * nx
+            sy = py + shadow_eps * ny
+            sz = pz + shadow_eps * nz
+            t0, t1 = clip_box(sx, sy, sz, lx, ly, lz, lo, hi, 0.0, dist)
+            if t0 <= t1:
+                if trace(code, params, boxes, lips, sx, sy, sz, lx, ly, lz, t0, t1,
+                         0.5 * shadow_eps, 0.0, 0.05 * (t1 - t0) + shadow_eps,
+                         vstack, pstack) >= 0.0:
+                    continue
+        hx, hy, hz = lx - vx, ly - vy, lz - vz
+        hn = np.sqrt(hx * hx + hy * hy + hz * hz)
+        spec = 0.0
+        if hn > 0.0:
+            ndh = (nx * hx + ny * hy + nz * hz) / hn
+            if ndh > 0.0:
+                spec = specular * ndh ** shininess
+        r += lights[k, 4] * (ar * ndl + spec)
+        g += lights[k, 5] * (ag * ndl + spec)
+        b += lights[k, 6] * (ab * ndl + spec)
+    out[0] = r
+    out[1] = g
+    out[2] = b

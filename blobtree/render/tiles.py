@@ -1,0 +1,298 @@
+"""Rendering one rectangle of the image: the unit of parallel and distributed work.
+
+Every pixel depends only on its own coordinates (anti-aliasing jitter comes from a hash of the
+seed, the pixel and the sample index; the cones marched ahead of the rays lie on a grid fixed to
+the image), so any set of tiles, rendered in any order on any machine, assembles into a
+byte-identical image.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from .. import kernels
+from ..specialize import specialize
+from .camera import Camera, as_color
+from .shade import Light, linear_to_srgb_byte, pack_lights, shade, srgb_to_linear
+from .trace import clip_box, march_cone, trace
+
+#: Largest image side accepted (a 16384^2 image is 805 MB of RGB).
+MAX_SIDE = 16384
+MAX_SAMPLES = 1024
+#: Smallest ray step, as a fraction of the scene's diagonal (camera rays also allow half a
+#: pixel's footprint).
+EPS_SCENE = 1e-6
+#: Shadow-ray start offset along the normal, as a fraction of the scene's diagonal.
+SHADOW_OFFSET = 1e-4
+#: Side in pixels of the cones marched before single rays (see ``_render_rect``).
+BLOCK, SUB = 16, 4
+#: Length of the stretch of a SUB cone (in cone radii) its specialised program covers.
+LOCAL_SPAN = 32.0
+#: First candidate segment of a ray, as a fraction of its chord through the bounds box.
+DELTA0 = 0.05
+
+
+@dataclass(frozen=True)
+class RenderSettings:
+    """Everything besides the scene, camera and lights that decides the pixels."""
+
+    width: int
+    height: int
+    samples: int = 1
+    shadows: bool = True
+    background: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    ambient: float = 0.12
+    specular: float = 0.25
+    shininess: float = 40.0
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        for name in ("width", "height"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | np.integer) and 1 <= v <= MAX_SIDE):
+                raise ValueError(f"{name} must be an integer in [1, {MAX_SIDE}], got {v!r}")
+        if not (isinstance(self.samples, int | np.integer) and 1 <= self.samples <= MAX_SAMPLES):
+            raise ValueError(
+                f"samples must be an integer in [1, {MAX_SAMPLES}], got {self.samples!r}"
+            )
+        object.__setattr__(self, "background", tuple(float(c) for c in as_color(
+            "background", self.background)))
+        for name in ("ambient", "specular", "shininess"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0.0):
+                raise ValueError(f"{name} must be a finite number >= 0, got {v!r}")
+        if not (isinstance(self.seed, int | np.integer) and 0 <= self.seed < 2**32):
+            raise ValueError(f"seed must be an integer in [0, 2**32), got {self.seed!r}")
+
+
+def check_rect(settings: RenderSettings, x0: int, y0: int, x1: int, y1: int) -> None:
+    """ValueError unless 0 <= x0 < x1 <= width and 0 <= y0 < y1 <= height."""
+    if not (0 <= x0 < x1 <= settings.width and 0 <= y0 < y1 <= settings.height):
+        raise ValueError(
+            f"tile (x0, y0, x1, y1) = ({x0}, {y0}, {x1}, {y1}) must satisfy "
+            f"0 <= x0 < x1 <= {settings.width} and 0 <= y0 < y1 <= {settings.height}"
+        )
+
+
+def render_tile(prog, camera: Camera, lights: list[Light], settings: RenderSettings,
+                x0: int, y0: int, x1: int, y1: int) -> np.ndarray:
+    """Pixels [y0, y1) x [x0, x1) of the image, as a (y1 - y0, x1 - x0, 3) uint8 array."""
+    check_rect(settings, x0, y0, x1, y1)
+    if not isinstance(camera, Camera):
+        raise ValueError(f"camera must be a blobtree Camera, got {camera!r}")
+    return trace_rect(prog, camera.packed(settings.width, settings.height), pack_lights(lights),
+                      settings, x0, y0, x1, y1)
+
+
+def trace_rect(prog, cam: np.ndarray, lights: np.ndarray, settings: RenderSettings,
+               x0: int, y0: int, x1: int, y1: int) -> np.ndarray:
+    """:func:`render_tile` on an already packed camera and lights (no argument checks)."""
+    code, params, boxes, lips = prog.arrays
+    lo, hi = (np.asarray(b, dtype=np.float64) for b in prog.bounds)
+    diag = float(np.linalg.norm(hi - lo))
+    s = settings
+    return _render_rect(code, params, boxes, lips, prog.depth, cam, lights, lo, hi,
+                        s.width, s.height, s.samples, s.shadows, np.array(s.background),
+                        s.ambient, s.specular, s.shininess, EPS_SCENE * diag,
+                        SHADOW_OFFSET * diag, s.seed, x0, y0, x1, y1)
+
+
+@njit(cache=True)
+def _hash(a):
+    """A 32-bit integer mix (Wellons' lowbias32 shape) on int64 values in [0, 2^32)."""
+    a ^= a >> 16
+    a = (a * 0x7FEB352D) & 0xFFFFFFFF
+    a ^= a >> 15
+    a = (a * 0x5BD1E995) & 0xFFFFFFFF
+    a ^= a >> 16
+    return a
+
+
+@njit(cache=True)
+def _uniform(seed, x, y, s, k):
+    """A reproducible uniform number in [0, 1) for sample s, coordinate k of pixel (x, y)."""
+    h = _hash((seed ^ x) & 0xFFFFFFFF)
+    h = _hash((h + y) & 0xFFFFFFFF)
+    h = _hash((h + s * 2 + k) & 0xFFFFFFFF)
+    return h / 4294967296.0
+
+
+@njit(cache=True)
+def _ray(cam, width, height, x, y):
+    """Unit direction of the camera ray through image point (x, y) (in pixels)."""
+    sx = 2.0 * x / width - 1.0
+    sy = 1.0 - 2.0 * y / height
+    dx = cam[3] + sx * cam[6] + sy * cam[9]
+    dy = cam[4] + sx * cam[7] + sy * cam[10]
+    dz = cam[5] + sx * cam[8] + sy * cam[11]
+    n = np.sqrt(dx * dx + dy * dy + dz * dz)
+    return dx / n, dy / n, dz / n
+
+
+@njit(cache=True)
+def _block_start(code, params, boxes, lips, cam, width, height, bx0, by0, bx1, by1, t, t_far,
+                 vstack, pstack):
+    """A depth before which no ray through pixels [bx0, bx1) x [by0, by1) meets the surface
+    (:func:`march_cone` on the cone around them), inf if none of them does; and the cone's unit
+    axis and tan of its half-angle."""
+    ax, ay, az = _ray(cam, width, height, 0.5 * (bx0 + bx1), 0.5 * (by0 + by1))
+    tan_a = 0.0
+    for cx in (bx0, bx1):
+        for cy in (by0, by1):
+            dx, dy, dz = _ray(cam, width, height, cx, cy)
+            c = dx * ax + dy * ay + dz * az
+            tan_a = max(tan_a, np.sqrt(max(1.0 - c * c, 0.0)) / c)
+    tan_a *= 1.000001
+    t = march_cone(code, params, boxes, lips, cam[0], cam[1], cam[2], ax, ay, az, tan_a, t,
+                   t_far, vstack, pstack)
+    return t, ax, ay, az, tan_a
+
+
+@njit(cache=True)
+def _pixel(code, params, boxes, lips, local, cam, lights, lo, hi, width, height, samples,
+           shadows, bg, bg_bytes, ambient, specular, shininess, eps_abs, eps_rel, shadow_eps,
+           seed, px, py, t_start, t_local, out, iy, ix, rgb, vstack, pstack):
+    """Trace and shade pixel (px, py) with every ray starting at depth t_start; write its sRGB
+    bytes into out[iy, ix].  Up to depth t_local the rays stay in the region the program
+    ``local = (code, boxes, lips)`` is specialised to; beyond it they use the full program."""
+    if t_start == np.inf:
+        for c in range(3):
+            out[iy, ix, c] = bg_bytes[c]
+        return
+    lcode, lboxes, llips = local
+    m = int(np.ceil(np.sqrt(samples)))
+    rows = (samples + m - 1) // m
+    acc_r = acc_g = acc_b = 0.0
+    hits = 0
+    for s in range(samples):
+        if samples == 1:
+            u = 0.5
+            v = 0.5
+        else:
+            u = (s % m + _uniform(seed, px, py, s, 0)) / m
+            v = (s // m + _uniform(seed, px, py, s, 1)) / rows
+        dx, dy, dz = _ray(cam, width, height, px + u, py + v)
+        t0, t1 = clip_box(cam[0], cam[1], cam[2], dx, dy, dz, lo, hi, t_start, np.inf)
+        t = -1.0
+        inside = True
+        if t0 <= min(t1, t_local):
+            t = trace(lcode, params, lboxes, llips, cam[0], cam[1], cam[2], dx, dy, dz, t0,
+                      min(t1, t_local), eps_abs, eps_rel, DELTA0 * (t1 - t0) + eps_abs,
+                      vstack, pstack)
+        if t < 0.0 and t_local < t1:
+            inside = False
+            t0 = max(t0, t_local)
+            t = trace(code, params, boxes, lips, cam[0], cam[1], cam[2], dx, dy, dz, t0, t1,
+                      eps_abs, eps_rel, DELTA0 * (t1 - t0) + eps_abs, vstack, pstack)
+        if t < 0.0:
+            acc_r += bg[0]
+            acc_g += bg[1]
+            acc_b += bg[2]
+            continue
+        hits += 1
+        shade(code, params, boxes, lips, lcode if inside else code, lboxes if inside else boxes,
+              cam[0] + t * dx, cam[1] + t * dy, cam[2] + t * dz, dx, dy, dz, lights, lo, hi,
+              shadows, ambient, specular, shininess, max(shadow_eps, eps_rel * t), rgb, vstack,
+              pstack)
+        acc_r += rgb[0]
+        acc_g += rgb[1]
+        acc_b += rgb[2]
+    if hits == 0:
+        for c in range(3):
+            out[iy, ix, c] = bg_bytes[c]
+    else:
+        out[iy, ix, 0] = linear_to_srgb_byte(acc_r / samples)
+        out[iy, ix, 1] = linear_to_srgb_byte(acc_g / samples)
+        out[iy, ix, 2] = linear_to_srgb_byte(acc_b / samples)
+
+
+@njit(cache=True)
+def _localize(code, boxes, lips, cam, ax, ay, az, tan_a, t_a, t_b, oc, ob, ol, lo, hi):
+    """Specialise the program to the box around the cone (apex: the eye, unit axis a, half-angle
+    atan(tan_a)) between axis depths t_a and t_b; return (code, boxes, lips) views."""
+    r = t_b * tan_a
+    for k in range(3):
+        a = cam[k] + t_a * (ax, ay, az)[k]
+        b = cam[k] + t_b * (ax, ay, az)[k]
+        lo[k] = min(a, b) - r
+        hi[k] = max(a, b) + r
+    n = specialize(code, boxes, lips, lo, hi, oc, ob, ol)
+    return oc[:n], ob[:n], ol[:n]
+
+
+@njit(cache=True, nogil=True)
+def _render_rect(code, params, boxes, lips, depth, cam, lights, lo, hi, width, height, samples,
+                 shadows, background, ambient, specular, shininess, eps_abs, shadow_eps, seed,
+                 x0, y0, x1, y1):
+    """Pixels [x0, x1) x [y0, y1), on one core without the GIL: blocks of BLOCK^2 pixels, each
+    first marched as one cone, then as cones of SUB^2 pixels; each of those specialises the program
+    to the stretch of its cone just past where it stopped, then traces its rays one by one."""
+    out = np.empty((y1 - y0, x1 - x0, 3), dtype=np.uint8)
+    bg = np.empty(3)
+    bg_bytes = np.empty(3, dtype=np.uint8)
+    for c in range(3):
+        bg[c] = srgb_to_linear(background[c])
+        bg_bytes[c] = np.uint8(int(background[c] * 255.0 + 0.5))
+    # Camera rays may skip features thinner than half a pixel's footprint (along the ray).
+    eps_rel = np.sqrt(cam[9] ** 2 + cam[10] ** 2 + cam[11] ** 2) / height
+    # No ray meets the surface before reaching the bounds box, nor after its farthest corner.
+    t_near = 0.0
+    t_far = 0.0
+    for k in range(3):
+        e = cam[k]
+        g = max(lo[k] - e, 0.0, e - hi[k])
+        t_near += g * g
+        t_far += max(abs(e - lo[k]), abs(e - hi[k])) ** 2
+    t_near = np.sqrt(t_near)
+    t_far = np.sqrt(t_far)
+    # Blocks and sub-blocks lie on a grid fixed to the image, not to the rectangle, and their
+    # cones always cover the whole grid cell: a pixel's result never depends on the tiling.
+    gx0 = x0 // BLOCK
+    gy0 = y0 // BLOCK
+    nbx = (x1 - 1) // BLOCK - gx0 + 1
+    nby = (y1 - 1) // BLOCK - gy0 + 1
+    nb = nbx * nby
+    ncode = code.shape[0]
+    vstack, pstack = kernels.scratch(depth)
+    rgb = np.empty(3)
+    oc = np.empty((ncode, 4), dtype=np.int64)
+    ob = np.empty((ncode, 6))
+    ol = np.empty(ncode)
+    rlo = np.empty(3)
+    rhi = np.empty(3)
+    for b in range(nb):
+        bx0 = (gx0 + b % nbx) * BLOCK
+        by0 = (gy0 + b // nbx) * BLOCK
+        bx1 = min(bx0 + BLOCK, width)
+        by1 = min(by0 + BLOCK, height)
+        tb = _block_start(code, params, boxes, lips, cam, width, height, bx0, by0, bx1, by1,
+                          t_near, t_far, vstack, pstack)[0]
+        for sy0 in range(by0, by1, SUB):
+            for sx0 in range(bx0, bx1, SUB):
+                sx1 = min(sx0 + SUB, bx1)
+                sy1 = min(sy0 + SUB, by1)
+                if sx1 <= x0 or sx0 >= x1 or sy1 <= y0 or sy0 >= y1:
+                    continue
+                ts = tb
+                t_local = tb
+                local = (code, boxes, lips)
+                if tb < np.inf:
+                    ts, ax, ay, az, tan_a = _block_start(code, params, boxes, lips, cam, width,
+                                                         height, sx0, sy0, sx1, sy1, tb, t_far,
+                                                         vstack, pstack)
+                    if ts < np.inf:
+                        t_local = ts + LOCAL_SPAN * ts * tan_a
+                        local = _localize(code, boxes, lips, cam, ax, ay, az, tan_a,
+                                          ts / np.sqrt(1.0 + tan_a * tan_a), t_local, oc, ob,
+                                          ol, rlo, rhi)
+                for py in range(max(sy0, y0), min(sy1, y1)):
+                    for px in range(max(sx0, x0), min(sx1, x1)):
+                        _pixel(code, params, boxes, lips, local, cam, lights, lo, hi, width,
+                               height, samples, shadows, bg, bg_bytes, ambient, specular,
+                               shininess, eps_abs, eps_rel, shadow_eps, seed, px, py, ts,
+                               t_local, out, py - y0, px - x0, rgb, vstack, pstack)
+    return out

@@ -1,0 +1,188 @@
+"""Ray-surface intersection by segment tracing (Galin, Guerin, Paris, Peytavie, CGF 2020).
+
+Along a ray p(t) = o + t d the tracer keeps a candidate segment [t, t + delta].  The engine bounds
+the field's gradient over the segment's bounding box (``kernels.lipschitz_box``); with that local
+Lipschitz bound L, the field cannot reach the iso-value 0.5 before t + (0.5 - f(t)) / L, so that
+step is safe.  The next candidate segment is ``GROWTH`` times the step just taken.  Where the
+support boxes miss the segment, L is 0 and the whole segment is skipped.  Steps never fall below
+``eps`` (a feature thinner than eps along the ray may be skipped: eps is a fraction of a pixel for
+camera rays), and once a step lands inside (f >= 0.5) the root is refined by the Illinois variant
+of regula falsi, which keeps the root bracketed.  :func:`march_cone` applies the same bound to a
+whole cone of camera rays at once, so a block of pixels skips empty space together.
+
+All kernels take the program arrays ``code, params, boxes, lips`` of ``Program.arrays`` and the
+per-thread scratch of ``kernels.scratch``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from .. import kernels
+
+ISO = 0.5
+#: Growth factor of the candidate segment (the paper's c).
+GROWTH = 1.5
+#: Regula-falsi iterations after a bracket is found (the bracket shrinks superlinearly).
+REFINE_ITERS = 24
+#: Refinement stops once the root is located to this fraction of the smallest step.
+REFINE_TOL = 1e-3
+
+
+@njit(cache=True)
+def clip_box(ox, oy, oz, dx, dy, dz, lo, hi, tmin, tmax):
+    """Slab test: the parameter range (t0, t1) of the ray inside box [lo, hi] within
+    [tmin, tmax]; t0 > t1 when the ray misses."""
+    t0 = tmin
+    t1 = tmax
+    o = (ox, oy, oz)
+    d = (dx, dy, dz)
+    for k in range(3):
+        if d[k] != 0.0:
+            inv = 1.0 / d[k]
+            a = (lo[k] - o[k]) * inv
+            b = (hi[k] - o[k]) * inv
+            if a > b:
+                a, b = b, a
+            t0 = max(t0, a)
+            t1 = min(t1, b)
+        elif o[k] < lo[k] or o[k] > hi[k]:
+            return 1.0, 0.0
+    return t0, t1
+
+
+@njit(cache=True)
+def _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, ta, fa, tb, fb, tol, vstack, pstack):
+    """Root of f - ISO in [ta, tb] with fa < 0 <= fb (Illinois regula falsi), stopping once
+    the secant slope puts the root within tol of the estimate."""
+    side = 0
+    t = (ta * fb - tb * fa) / (fb - fa)
+    for _ in range(REFINE_ITERS):
+        if not (ta < t < tb):
+            t = 0.5 * (ta + tb)
+        f = kernels.eval_point(code, params, boxes, ox + t * dx, oy + t * dy, oz + t * dz, 0,
+                               vstack, pstack) - ISO
+        if abs(f) * (tb - ta) <= tol * (fb - fa):
+            return t
+        if f >= 0.0:
+            tb, fb = t, f
+            if side == 1:
+                fa *= 0.5
+            side = 1
+        else:
+            ta, fa = t, f
+            if side == -1:
+                fb *= 0.5
+            side = -1
+        if tb - ta <= tol:
+            break
+        t = (ta * fb - tb * fa) / (fb - fa)
+    return 0.5 * (ta + tb)
+
+
+@njit(cache=True)
+def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, eps_rel,
+          delta0, vstack, pstack):
+    """First t in [t0, t1] where the field reaches ISO along the unit-direction ray, or -1.
+
+    A ray that starts inside (f >= ISO at t0) hits at t0.  ``eps_abs + eps_rel * t`` is the
+    smallest step.
+    """
+    t = t0
+    f = kernels.eval_point(code, params, boxes, ox + t * dx, oy + t * dy, oz + t * dz, 0,
+                           vstack, pstack) - ISO
+    if f >= 0.0:
+        return t
+    delta = delta0
+    while t < t1:
+        te = min(t + delta, t1)
+        ax = ox + t * dx
+        ay = oy + t * dy
+        az = oz + t * dz
+        bx = ox + te * dx
+        by = oy + te * dy
+        bz = oz + te * dz
+        lam = kernels.lipschitz_box(code, params, boxes, lips, min(ax, bx), min(ay, by),
+                                    min(az, bz), max(ax, bx), max(ay, by), max(az, bz), vstack)
+        step = te - t
+        if lam > 0.0:
+            step = min(step, -f / lam)
+        eps = eps_abs + eps_rel * t
+        step = max(step, eps)
+        tn = t + step
+        if tn > t1:
+            tn = t1
+        fn = kernels.eval_point(code, params, boxes, ox + tn * dx, oy + tn * dy, oz + tn * dz, 0,
+                                vstack, pstack) - ISO
+        if fn >= 0.0:
+            return _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, t, f, tn, fn,
+                           REFINE_TOL * eps, vstack, pstack)
+        if tn >= t1:
+            break
+        t = tn
+        f = fn
+        delta = GROWTH * step
+    return -1.0
+
+
+@njit(cache=True)
+def march_cone(code, params, boxes, lips, ex, ey, ez, ax, ay, az, tan_a, t, t1, vstack, pstack):
+    """Segment tracing for a whole cone of rays (apex at the eye, unit axis a, half-angle
+    atan(tan_a)): the largest axis depth reached with the cone proven free of surface, or inf if
+    the cone gets past t1 untouched.
+
+    Over the candidate segment [t, te] the cone lies in the axis segment's box grown by
+    te * tan_a, where the field is L-Lipschitz; a point of the cone at depth t' is within
+    (t' - t) + t' tan_a of the axis point at t, so depths up to t + step are free while
+    f(t) + L (step + (t + step) tan_a) < ISO.  Every ray in the cone may start at the returned
+    depth (its own parameter is never less than its axis depth).
+    """
+    delta = 0.05 * (t1 - t) + 1e-12
+    f = 0.0
+    have_f = False  # the field at the current axis point is evaluated only when needed
+    while t < t1:
+        te = min(t + delta, t1)
+        r = te * tan_a
+        px, py, pz = ex + t * ax, ey + t * ay, ez + t * az
+        qx, qy, qz = ex + te * ax, ey + te * ay, ez + te * az
+        lam = kernels.lipschitz_box(code, params, boxes, lips, min(px, qx) - r, min(py, qy) - r,
+                                    min(pz, qz) - r, max(px, qx) + r, max(py, qy) + r,
+                                    max(pz, qz) + r, vstack)
+        step = te - t
+        if lam > 0.0:
+            if not have_f:
+                f = kernels.eval_point(code, params, boxes, px, py, pz, 0, vstack, pstack) - ISO
+                have_f = True
+            step = min(step, (-f / lam - t * tan_a) / (1.0 + tan_a))
+            if step < 0.25 * t * tan_a:
+                return t
+        t += step
+        have_f = False
+        delta = GROWTH * step
+    return np.inf
+
+
+@njit(cache=True, parallel=True)
+def intersect_rays(code, params, boxes, lips, depth, origins, directions, lo, hi, tmax, eps_abs):
+    """First hit distance of each ray (directions need not be unit; t is in units of |d|)."""
+    n = origins.shape[0]
+    out = np.full(n, np.nan)
+    nchunks = min(n, 256)
+    for c in prange(nchunks):
+        vstack, pstack = kernels.scratch(depth)
+        for i in range(c, n, nchunks):
+            dx, dy, dz = directions[i, 0], directions[i, 1], directions[i, 2]
+            norm = np.sqrt(dx * dx + dy * dy + dz * dz)
+            dx /= norm
+            dy /= norm
+            dz /= norm
+            ox, oy, oz = origins[i, 0], origins[i, 1], origins[i, 2]
+            t0, t1 = clip_box(ox, oy, oz, dx, dy, dz, lo, hi, 0.0, tmax[i] * norm)
+            if t0 > t1:
+                continue
+            t = trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, 0.0,
+                      0.05 * (t1 - t0) + eps_abs, vstack, pstack)
+            if t >= 0.0:
+                out[i] = t / norm
+    return out

@@ -1,0 +1,262 @@
+"""The direct ray tracer against analytic answers: spheres, silhouettes, thin spines, shadows."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from PIL import Image
+
+import blobtree as bt
+from blobtree.render import (
+    Camera,
+    Light,
+    RenderSettings,
+    intersect,
+    render,
+    render_tile,
+    save_image,
+    tiles,
+)
+from blobtree.render.camera import default_camera
+from blobtree.render.shade import default_lights
+
+BLACK = (0.0, 0.0, 0.0)
+
+
+def covered(img: np.ndarray, background=(0, 0, 0)) -> np.ndarray:
+    """Pixels that differ from the background."""
+    return np.any(img != np.array(background, dtype=np.uint8), axis=2)
+
+
+# ----- intersections ------------------------------------------------------------------------
+def test_lone_point_is_a_sphere_of_half_its_radius():
+    centre = np.array([0.3, -0.2, 0.1])
+    tree = bt.Point(radius=2.0, center=tuple(centre))  # surface: radius 1
+    rng = np.random.default_rng(0)
+    origins = centre + rng.normal(size=(200, 3)) * 0.1 + np.array([0.0, 0.0, 5.0])
+    targets = centre + rng.uniform(-0.6, 0.6, size=(200, 3))
+    d = targets - origins
+    t = intersect(tree, origins, d)
+    # analytic: smallest root of |o + t d - c|^2 = 1
+    oc = origins - centre
+    a, b, c = (d * d).sum(1), 2 * (oc * d).sum(1), (oc * oc).sum(1) - 1.0
+    expected = (-b - np.sqrt(b * b - 4 * a * c)) / (2 * a)
+    np.testing.assert_allclose(t, expected, rtol=0, atol=1e-7)
+
+
+def test_rays_that_miss_give_nan_and_tmax_cuts():
+    tree = bt.Point(radius=2.0)
+    o = np.array([[0.0, 0.0, 5.0], [0.0, 1.2, 5.0], [0.0, 0.0, 5.0]])
+    d = np.array([[0.0, 0.0, -1.0], [0.0, 0.0, -1.0], [0.0, 0.0, -1.0]])
+    t = intersect(tree, o, d, tmax=np.array([10.0, 10.0, 3.9]))
+    assert t[0] == pytest.approx(4.0, abs=1e-9)
+    assert np.isnan(t[1]) and np.isnan(t[2])
+
+
+def test_thin_spine_beside_a_big_body_is_never_missed():
+    # A spine about two pixels wide next to a large blob (a large Lipschitz bound nearby).
+    spine = bt.Cone((0.0, -1.2, 0.0), (0.0, 1.2, 0.0), radius_a=0.1, radius_b=0.08)
+    tree = spine | bt.Point(radius=3.0, center=(2.6, 0.0, 0.0))
+    cam = Camera(eye=(0.0, 0.0, 4.0), target=(0.0, 0.0, 0.0), fov=40.0)
+    img = render(tree, 64, 64, camera=cam, background=BLACK, shadows=False)
+    hit = covered(img)
+    # Rows the spine spans (|y| < 1.1 at depth 4): every one has a hit near the centre column.
+    half = math.tan(math.radians(20.0)) * 4.0
+    rows = [j for j in range(64) if abs((1 - 2 * (j + 0.5) / 64) * half) < 1.1]
+    assert all(hit[j, 28:36].any() for j in rows)
+
+
+def test_silhouette_area_matches_projected_disc():
+    tree = bt.Point(radius=2.0)  # sphere of radius 1
+    dist, fov, n = 4.0, 40.0, 64
+    cam = Camera(eye=(0.0, 0.0, dist), target=(0.0, 0.0, 0.0), fov=fov)
+    img = render(tree, n, n, camera=cam, background=BLACK, shadows=False)
+    r_px = math.tan(math.asin(1.0 / dist)) / math.tan(math.radians(fov / 2)) * n / 2
+    area = covered(img).sum()
+    assert area == pytest.approx(math.pi * r_px**2, rel=0.03)
+
+
+def test_no_holes_at_grazing_angles():
+    disc = bt.Point(radius=2.0).scale(1.0, 0.04, 1.0)  # a thin flat disc, seen nearly edge on
+    cam = Camera(eye=(0.0, 0.12, 5.0), target=(0.0, 0.0, 0.0), fov=30.0)
+    img = render(disc, 64, 48, camera=cam, background=BLACK, shadows=False)
+    hit = covered(img)
+    cols = np.nonzero(hit.any(axis=0))[0]
+    assert len(cols) > 30
+    for x in cols[2:-2]:  # every column is one unbroken vertical run
+        ys = np.nonzero(hit[:, x])[0]
+        assert ys[-1] - ys[0] + 1 == len(ys)
+
+
+# ----- shading ------------------------------------------------------------------------------
+def test_shadow_darkens_the_ground_behind_an_occluder():
+    ground = bt.Point(radius=2.0).scale(3.0, 0.25, 3.0)
+    ball = bt.Point(radius=0.8, center=(0.0, 1.2, 0.0))
+    tree = ground | ball
+    cam = Camera(eye=(0.0, 5.0, 5.0), target=(0.0, 0.0, 0.0), fov=45.0)
+    light = [Light(direction=(0.0, -1.0, 0.0))]
+    lit = render(tree, 48, 48, camera=cam, lights=light, shadows=False).astype(int)
+    shadowed = render(tree, 48, 48, camera=cam, lights=light, shadows=True).astype(int)
+    darker = (shadowed.sum(axis=2) < lit.sum(axis=2) - 30)
+    assert darker.sum() > 20
+    # The darkened pixels are ground under the ball: below the ball's image, near the middle.
+    ys, xs = np.nonzero(darker)
+    assert abs(xs.mean() - 23.5) < 4
+    # Away from the shadow nothing changes.
+    assert (shadowed[:, :8] == lit[:, :8]).all()
+
+
+def test_convex_object_has_no_shadow_acne():
+    tree = bt.Point(radius=2.0)
+    cam = Camera(eye=(1.0, 2.0, 4.0), target=(0.0, 0.0, 0.0), fov=40.0)
+    a = render(tree, 48, 48, camera=cam, shadows=True)
+    b = render(tree, 48, 48, camera=cam, shadows=False)
+    assert (a == b).all()
+
+
+def test_albedo_colours_the_image_and_background_is_exact():
+    tree = bt.Point(radius=2.0).color((1.0, 0.0, 0.0))
+    cam = Camera(eye=(0.0, 0.0, 4.0), target=(0.0, 0.0, 0.0), fov=40.0)
+    img = render(tree, 32, 32, camera=cam, background=(0.0, 0.0, 1.0))
+    assert (img[0, 0] == [0, 0, 255]).all()
+    centre = img[16, 16].astype(int)
+    assert centre[0] > 100 and centre[1] < 60 and centre[2] < 60
+
+
+def test_lambert_shading_is_gamma_encoded():
+    tree = bt.Point(radius=2.0)  # default albedo 0.8 grey
+    cam = Camera(eye=(0.0, 0.0, 4.0), target=(0.0, 0.0, 0.0), fov=40.0)
+    light = [Light(direction=(0.0, 0.0, -1.0))]  # shines along the view: n.l = 1 at the centre
+    img = render(tree, 33, 33, camera=cam, lights=light, background=BLACK, ambient=0.0,
+                 specular=0.0)
+    # The albedo is an sRGB colour: lit head-on, the pixel shows it exactly (0.8 -> 204).
+    assert tuple(img[16, 16]) == (204, 204, 204)
+    # Off centre, Lambert's n.l scales the *linear* albedo, then the result is sRGB-encoded.
+    px = 26
+    half = np.tan(np.radians(20.0))
+    d = np.array([[(2 * (px + 0.5) / 33 - 1) * half, 0.0, -1.0]])
+    t = intersect(tree, np.array([[0.0, 0.0, 4.0]]), d)[0]
+    p = np.array([0.0, 0.0, 4.0]) + t * d[0]
+    ndl = p[2] / np.linalg.norm(p)
+    lin = ((0.8 + 0.055) / 1.055) ** 2.4 * ndl
+    expected = round(255 * (1.055 * lin ** (1 / 2.4) - 0.055))
+    assert abs(int(img[16, px, 0]) - expected) <= 1
+    side = [Light(direction=(1.0, 0.0, 0.0))]  # shines toward +x: only the -x half is lit
+    img = render(tree, 33, 33, camera=cam, lights=side, background=BLACK, ambient=0.0,
+                 specular=0.0).astype(int)
+    assert img[16, 9].sum() > 3 * 60 and img[16, 24].sum() == 0
+
+
+# ----- sampling, tiles and reproducibility -----------------------------------------------------
+def test_antialiasing_is_reproducible_and_only_changes_edges():
+    tree = bt.Point(radius=2.0)
+    cam = Camera(eye=(0.0, 0.0, 4.0), target=(0.0, 0.0, 0.0), fov=40.0)
+    a = render(tree, 32, 32, camera=cam, samples=4, background=BLACK)
+    b = render(tree, 32, 32, camera=cam, samples=4, background=BLACK)
+    one = render(tree, 32, 32, camera=cam, samples=1, background=BLACK)
+    assert (a == b).all()
+    assert not (a == one).all()
+    edge = covered(a) != covered(one)
+    assert edge.sum() < 0.2 * covered(one).sum()
+    c = render(tree, 32, 32, camera=cam, samples=4, background=BLACK, seed=7)
+    assert not (a == c).all()
+
+
+@pytest.mark.parametrize("samples", [1, 3])
+def test_tiles_assemble_into_identical_bytes(samples):
+    tree = bt.models.whorl126()
+    prog = tree.program()
+    w, h = 40, 30
+    whole = render(prog, w, h, samples=samples)
+    cam = default_camera(prog, w, h)
+    settings = RenderSettings(width=w, height=h, samples=samples)
+    lights = default_lights(cam)
+    out = np.zeros_like(whole)
+    for x0, y0, x1, y1 in [(0, 0, 17, 11), (17, 0, 40, 11), (0, 11, 40, 30)]:
+        out[y0:y1, x0:x1] = render_tile(prog, cam, lights, settings, x0, y0, x1, y1)
+    assert (out == whole).all()
+    assert (render(prog, w, h, samples=samples, tile=7) == whole).all()
+
+
+def test_tiles_cover_the_image_once():
+    cover = np.zeros((50, 70), dtype=int)
+    for x0, y0, x1, y1 in tiles(70, 50, 16):
+        cover[y0:y1, x0:x1] += 1
+    assert (cover == 1).all()
+
+
+def test_default_camera_frames_the_whole_tree():
+    tree = bt.Point(radius=2.0, center=(5.0, 1.0, -2.0)) + bt.Point(radius=1.0,
+                                                                     center=(6.0, 1.5, -2.0))
+    img = render(tree, 48, 48, background=BLACK, shadows=False)
+    hit = covered(img)
+    assert not hit[0].any() and not hit[-1].any() and not hit[:, 0].any() and not hit[:, -1].any()
+    assert hit.mean() > 0.1
+
+
+# ----- arguments and files ------------------------------------------------------------------
+@pytest.mark.parametrize(
+    "kwargs, name",
+    [
+        ({"width": 0}, "width"),
+        ({"height": -3}, "height"),
+        ({"samples": 0}, "samples"),
+        ({"background": (255, 0, 0)}, "background"),
+        ({"lights": ["sun"]}, "lights[0]"),
+        ({"threads": 0}, "threads"),
+        ({"camera": "front"}, "camera"),
+    ],
+)
+def test_bad_render_arguments_name_the_parameter(kwargs, name):
+    args = {"width": 8, "height": 8, **kwargs}
+    with pytest.raises(ValueError, match=re_name(name)):
+        render(bt.Point(radius=1.0), **args)
+
+
+def re_name(name: str) -> str:
+    return name.replace("[", r"\[").replace("]", r"\]")
+
+
+@pytest.mark.parametrize(
+    "kwargs, name",
+    [
+        ({"fov": 200.0}, "fov"),
+        ({"fov": 0.0}, "fov"),
+        ({"eye": (np.nan, 0.0, 1.0)}, "eye"),
+        ({"eye": (0.0, 0.0, 0.0)}, "eye"),
+        ({"up": (0.0, 0.0, 1.0)}, "up"),
+        ({"target": (1.0, 2.0)}, "target"),
+    ],
+)
+def test_bad_camera_arguments_name_the_parameter(kwargs, name):
+    args = {"eye": (0.0, 0.0, 5.0), "target": (0.0, 0.0, 0.0), **kwargs}
+    with pytest.raises(ValueError, match=name) as err:
+        Camera(**args)
+    assert str(list(kwargs.values())[0])[:4] in str(err.value)
+
+
+def test_bad_light_and_tile_arguments():
+    with pytest.raises(ValueError, match="direction"):
+        Light()
+    with pytest.raises(ValueError, match="intensity"):
+        Light(direction=(0, -1, 0), intensity=-1.0)
+    settings = RenderSettings(width=8, height=8)
+    cam = Camera(eye=(0.0, 0.0, 5.0))
+    with pytest.raises(ValueError, match="tile"):
+        render_tile(bt.Point(radius=1.0).program(), cam, [], settings, 0, 0, 9, 8)
+
+
+def test_save_image_writes_png_atomically(tmp_path):
+    img = np.zeros((5, 7, 3), dtype=np.uint8)
+    img[2, 3] = (10, 200, 30)
+    path = save_image(img, tmp_path / "out.png")
+    back = np.asarray(Image.open(path))
+    assert (back == img).all()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.png"]
+    with pytest.raises(ValueError, match="path"):
+        save_image(img, tmp_path / "out.xyz")
+    with pytest.raises(ValueError, match="img"):
+        save_image(np.zeros((5, 7)), tmp_path / "bad.png")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.png"]

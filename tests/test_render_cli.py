@@ -1,0 +1,49 @@
+"""``blobtree render``: scenes to images from the command line."""
+
+from __future__ import annotations
+
+import numpy as np
+from click.testing import CliRunner
+from PIL import Image
+
+import blobtree as bt
+from blobtree.cli.render_cmd import render
+
+
+def test_render_builtin_model(tmp_path):
+    out = tmp_path / "w.png"
+    r = CliRunner().invoke(render, ["whorl126", "-o", str(out), "--size", "40x30", "--quiet"])
+    assert r.exit_code == 0, r.output
+    img = np.asarray(Image.open(out))
+    assert img.shape == (30, 40, 3)
+    assert (img != 255).any()  # something besides the white background
+
+
+def test_render_scene_file_with_camera_options(tmp_path):
+    scene = tmp_path / "s.json"
+    bt.save(bt.Point(radius=2.0).color((0.0, 1.0, 0.0)), scene)
+    out = tmp_path / "s.png"
+    r = CliRunner().invoke(render, [str(scene), "-o", str(out), "--size", "33x33", "--eye",
+                                    "0,0,4", "--target", "0,0,0", "--fov", "40", "--background",
+                                    "0,0,0", "--samples", "2", "--no-shadows", "--quiet"])
+    assert r.exit_code == 0, r.output
+    img = np.asarray(Image.open(out)).astype(int)
+    assert (img[0, 0] == 0).all()
+    assert img[16, 16, 1] > 100 and img[16, 16, 0] < 60
+
+
+def test_render_bad_arguments_are_clear_errors(tmp_path):
+    out = tmp_path / "x.png"
+    for args, words in [
+        (["--size", "20x0"], "height"),
+        (["--size", "big"], "WIDTHxHEIGHT"),
+        (["--fov", "200"], "fov"),
+        (["--eye", "1,2"], "3 comma-separated"),
+        (["--background", "255,0,0"], "background"),
+        (["--samples", "0"], "samples"),
+    ]:
+        r = CliRunner().invoke(render, ["whorl126", "-o", str(out), "--quiet", *args])
+        assert r.exit_code != 0 and words in r.output, (args, r.output)
+    assert not out.exists()
+    r = CliRunner().invoke(render, ["no-such-model", "-o", str(out), "--quiet"])
+    assert r.exit_code != 0 and "whorl126" in r.output
