@@ -29,6 +29,7 @@ from .nodes import (
     super_blend,
     union,
 )
+from .render import Camera, Light, RenderSettings, render, render_tile, save_image
 
 __version__ = "0.1.0"
 
@@ -36,5 +37,6 @@ __all__ = [
     "ISO", "Blend", "Color", "Cone", "ControlledBlend", "Cylinder", "Difference", "Disc",
     "Intersection", "Node", "Point", "Primitive", "Program", "Segment", "SuperBlend", "Torus",
     "Union", "blend", "compile_tree", "controlled_blend", "difference", "intersection", "load",
-    "Mesh", "models", "polygonize", "save", "super_blend", "union",
+    "Camera", "Light", "Mesh", "RenderSettings", "models", "polygonize", "render",
+    "render_tile", "save", "save_image", "super_blend", "union",
 ]
