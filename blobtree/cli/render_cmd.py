@@ -10,7 +10,7 @@ import click
 from ..render import Camera, save_image
 from ..render import render as render_image
 from ..render.camera import default_camera
-from .scenes import resolve_scene
+from .scenes import resolve_scene, scene_camera
 
 
 def _floats(n: int):
@@ -64,7 +64,10 @@ def render(scene, output, size, samples, eye, target, up, fov, no_shadows, backg
         tree = resolve_scene(scene)
         prog = tree.program()
         camera = None
-        if eye is not None or target is not None or fov is not None:
+        if eye is None and target is None and fov is None:  # a built-in model's own view
+            view = scene_camera(scene, tree, width, height)
+            camera = None if view is None else Camera(**view)
+        else:
             if eye is None or target is None or fov is None:
                 framed = default_camera(prog, width, height)
                 eye, target = eye or framed.eye, target or framed.target
