@@ -589,8 +589,17 @@ def _prim_lipschitz(op, p, o, lip, lox, loy, loz, hix, hiy, hiz):
     centre c, so distances to the skeleton lie in [d(c) - rho, d(c) + rho]; the falloff's slope
     is bounded there.  ``lip`` is the primitive's global bound."""
     qx, qy, qz, hx, hy, hz = _map_box(p, o, lox, loy, loz, hix, hiy, hiz)
-    rho = math.sqrt(hx * hx + hy * hy + hz * hz)
     fid = int(p[o + 13])
+    if op == OP_POINT:  # distances from the centre to the (mapped) box itself, per axis
+        h = o + PRIM_HEADER
+        dmin2 = dmax2 = 0.0
+        for off, half in ((qx - p[h], hx), (qy - p[h + 1], hy), (qz - p[h + 2], hz)):
+            gap = max(abs(off) - half, 0.0)
+            dmin2 += gap * gap
+            dmax2 += (abs(off) + half) ** 2
+        radius = p[o + 12]
+        return lip * _slope_at(fid, math.sqrt(dmin2) / radius, math.sqrt(dmax2) / radius)
+    rho = math.sqrt(hx * hx + hy * hy + hz * hz)
     if op != OP_CONE:
         s, _, _, _ = _prim_s(op, p, o, qx, qy, qz)
         radius = p[o + 12]
