@@ -67,6 +67,17 @@ def scene_text(tree: Node) -> str:
     return dumps(tree)
 
 
+def _scene(text: str) -> str:
+    """Worker task holding the scene text: unlike scattered data, Dask recomputes it if every
+    worker holding it is lost."""
+    return text
+
+
+def send_scene(client: Client, tree: Node) -> Any:
+    """A future of the tree's scene text on the cluster, for tasks to take as an argument."""
+    return client.submit(_scene, scene_text(tree), pure=False)
+
+
 def worker_program(text: str) -> Program:
     """The compiled program of a scene text, compiled once per process (LRU of scenes)."""
     key = hashlib.sha256(text.encode()).hexdigest()
@@ -81,10 +92,12 @@ def worker_program(text: str) -> Program:
 
 @contextlib.contextmanager
 def connect(scheduler: str | Client | None = None, workers: int | None = None,
-            timeout: float = CONNECT_TIMEOUT) -> Iterator[Client | None]:
+            timeout: float | None = None) -> Iterator[Client | None]:
     """A Dask client: ``scheduler`` (an address "tcp://HOST:PORT", or a Client used as is), or
     a new local cluster of ``workers`` single-threaded processes, or None (the local engine)
-    when neither is given.  Closes what it opened."""
+    when neither is given.  Closes what it opened.  ``timeout``: seconds to wait for the
+    scheduler (default ``CONNECT_TIMEOUT``)."""
+    timeout = CONNECT_TIMEOUT if timeout is None else timeout
     if scheduler is not None and workers is not None:
         raise ValueError(f"give either scheduler or workers, not both (got scheduler="
                          f"{scheduler!r}, workers={workers!r})")
@@ -99,7 +112,7 @@ def connect(scheduler: str | Client | None = None, workers: int | None = None,
         if isinstance(workers, bool) or not (isinstance(workers, int) and workers >= 1):
             raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
         with dd.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                             dashboard_address=None) as cluster, dd.Client(cluster) as client:
+                             dashboard_address=":0") as cluster, dd.Client(cluster) as client:
             yield client
         return
     if not (isinstance(scheduler, str) and scheduler):
@@ -137,10 +150,10 @@ def remote_tiles(scheduler: str | Client, tree: Node, camera: Camera, lights: Se
 
     Closing the iterator early (an error, Ctrl-C) cancels the tiles not yet done.
     """
-    text = scene_text(tree)
+    scene_text(tree)  # checked before connecting
     dd = _distributed()
     with connect(scheduler) as client:
-        scene = client.scatter(text, broadcast=True)
+        scene = send_scene(client, tree)
         futures = {client.submit(_render_tile, scene, camera, list(lights), settings, rect,
                                  pure=False): rect for rect in rects}
         try:
@@ -165,7 +178,7 @@ class RemoteProgram:
     def __init__(self, client: Client, tree: Node):
         self.client = client
         self.bounds = tree.program().bounds
-        self.scene = client.scatter(scene_text(tree), broadcast=True)
+        self.scene = send_scene(client, tree)
         self.parts = CHUNKS_PER_WORKER * max(1, len(client.scheduler_info(n_workers=-1)
                                                     ["workers"]))
 
