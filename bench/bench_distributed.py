@@ -40,7 +40,7 @@ def main() -> None:
     ap.add_argument("--samples", type=int, default=1, help="rays per pixel")
     ap.add_argument("--tile", type=int, default=64, help="tile side in pixels")
     args = ap.parse_args()
-    from distributed import Client, LocalCluster
+    from blobtree.distributed import connect
 
     tree = bt.models.murex()
     opts = dict(samples=args.samples, tile=args.tile)
@@ -49,13 +49,9 @@ def main() -> None:
     local, t_local = timed(lambda: bt.render(tree, n, n, **opts))
     print(f"local engine      {n}x{n}: {t_local:8.2f} s")
 
-    def start():
-        cluster = LocalCluster(n_workers=args.workers, threads_per_worker=1, processes=True,
-                               dashboard_address=":0")
-        return cluster, Client(cluster)
-
-    (cluster, client), t_start = timed(start)
-    with cluster, client:
+    cluster = connect(workers=args.workers)
+    client, t_start = timed(cluster.__enter__)
+    with cluster:
         print(f"cluster start ({args.workers} workers): {t_start:8.2f} s")
         _, t_cold = timed(lambda: bt.render(tree, 32, 32, **opts, scheduler=client))
         print(f"cold 32x32 on the cluster (workers load kernels, compile): {t_cold:.2f} s")

@@ -19,6 +19,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import json
+import threading
 from collections import OrderedDict
 from collections.abc import Iterator, Sequence
 from pathlib import Path
@@ -47,6 +48,7 @@ CACHE_SCENES = 4
 CHUNKS_PER_WORKER = 4
 
 _PROGRAMS: OrderedDict[str, Program] = OrderedDict()
+_PROGRAMS_LOCK = threading.Lock()
 
 
 def _distributed():
@@ -81,12 +83,13 @@ def send_scene(client: Client, tree: Node) -> Any:
 def worker_program(text: str) -> Program:
     """The compiled program of a scene text, compiled once per process (LRU of scenes)."""
     key = hashlib.sha256(text.encode()).hexdigest()
-    prog = _PROGRAMS.pop(key, None)
-    if prog is None:
-        prog = loads(text).program()
-    _PROGRAMS[key] = prog
-    while len(_PROGRAMS) > CACHE_SCENES:
-        _PROGRAMS.popitem(last=False)
+    with _PROGRAMS_LOCK:  # a worker may run tasks on several threads
+        prog = _PROGRAMS.pop(key, None)
+        if prog is None:
+            prog = loads(text).program()
+        _PROGRAMS[key] = prog
+        while len(_PROGRAMS) > CACHE_SCENES:
+            _PROGRAMS.popitem(last=False)
     return prog
 
 
@@ -111,8 +114,10 @@ def connect(scheduler: str | Client | None = None, workers: int | None = None,
     if workers is not None:
         if isinstance(workers, bool) or not (isinstance(workers, int) and workers >= 1):
             raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
+        # one core per process: numba's own threads would compete with the other workers
         with dd.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                             dashboard_address=":0") as cluster, dd.Client(cluster) as client:
+                             dashboard_address=":0", env={"NUMBA_NUM_THREADS": "1"}
+                             ) as cluster, dd.Client(cluster) as client:
             yield client
         return
     if not (isinstance(scheduler, str) and scheduler):
@@ -129,9 +134,9 @@ def connect(scheduler: str | Client | None = None, workers: int | None = None,
 
 def describe(client: Client) -> str:
     """The cluster a client uses: scheduler address and number of workers."""
-    workers = client.scheduler_info(n_workers=-1)["workers"]
-    threads = sum(w.get("nthreads", 1) for w in workers.values())
-    return f"cluster: {client.scheduler.address}, {len(workers)} workers, {threads} threads"
+    nthreads = client.nthreads()
+    return (f"cluster: {client.scheduler.address}, {len(nthreads)} workers, "
+            f"{sum(nthreads.values())} threads")
 
 
 # ----- rendering ----------------------------------------------------------------------------
@@ -179,8 +184,7 @@ class RemoteProgram:
         self.client = client
         self.bounds = tree.program().bounds
         self.scene = send_scene(client, tree)
-        self.parts = CHUNKS_PER_WORKER * max(1, len(client.scheduler_info(n_workers=-1)
-                                                    ["workers"]))
+        self.parts = CHUNKS_PER_WORKER * max(1, len(client.nthreads()))
 
     def _map(self, method: str, *arrays: np.ndarray) -> list[Any]:
         n = len(arrays[0])

@@ -35,9 +35,7 @@ def scene() -> bt.Node:
 @pytest.fixture(scope="module")
 def client():
     """A local cluster of two single-threaded worker processes."""
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=":0") as cluster, \
-            distributed.Client(cluster) as c:
+    with bd.connect(workers=2) as c:
         c.wait_for_workers(2, timeout=TIMEOUT)
         yield c
 
@@ -90,9 +88,7 @@ def test_killed_worker_does_not_change_the_image():
     expected = bt.render(tree, 96, 96, camera=camera, lights=lights, samples=4)
     rects = list(tiles(96, 96, 8))
     img = np.zeros_like(expected)
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=":0") as cluster, \
-            distributed.Client(cluster) as c:
+    with bd.connect(workers=2) as c:
         c.wait_for_workers(2, timeout=TIMEOUT)
         pids = c.run(os.getpid)
         victim_address, victim = next(iter(pids.items()))
