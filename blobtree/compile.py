@@ -8,7 +8,9 @@ Layout (one row per instruction):
   enclosing affine transforms folded in, R, falloff id, then the skeleton);
 * ``boxes`` float64 (n, 6): the instruction's box in the current frame (world, or the space of the
   nearest enclosing warp); a point outside skips the subtree, which then contributes 0;
-* ``lips`` float64 (n,): Lipschitz constants in world units for primitives and warped subtrees.
+* ``lips`` float64 (n,): Lipschitz constants in the current frame for primitives and warped
+  subtrees (PUSHPT); for a warp its stretch (a bound on its Jacobian's norm); for POPPT the
+  factor from the warp's child frame to the outer frame.
 
 Affine chains are folded into primitives, so only warps move the point at run time.  Large
 blends, super-elliptic blends and unions are regrouped into a bounding-volume hierarchy (they are
@@ -278,10 +280,12 @@ class _Emitter:
             op, canon = K.OP_TWIST, [node.k]
         else:
             op, canon = K.OP_TAPER, [node.rate, *node.t_range]
-        w = self.add(op, list(_canonical_perm(node).reshape(-1)) + canon, node.own_box)
+        w = self.add(op, list(_canonical_perm(node).reshape(-1)) + canon, node.own_box,
+                     lip=node.stretch)
         self.emit(node.child, geo.IDENTITY, look)
         self.code[w][2] = len(self.code)  # a miss jumps to POPPT
-        self.add(K.OP_POPPT)
+        # POPPT's lip: the factor from the warp's child frame to the outer frame
+        self.add(K.OP_POPPT, lip=node.stretch * geo.spectral_norm(inv[:, :3]))
         self.code[push][2] = len(self.code)
         return box
 

@@ -558,63 +558,112 @@ SLOPE_PEAK = np.array([_slope_peak(fid) for fid in range(len(SLOPE_BY_ID))])
 PEAK_SLOPE = np.array([2.0 * r * abs(falloff_ds(fid, r * r)) for fid, r in enumerate(SLOPE_PEAK)])
 
 
-@njit(cache=True)
-def _point_slope(p, o, lox, loy, loz, hix, hiy, hiz):
-    """The point primitive's steepest slope over the world box, as a fraction of its peak slope.
-
-    Segment tracing's distance-aware bound (Galin et al. 2020, ``BlobTreePoint::K``): the box,
-    mapped to the local frame (as the box around its image), spans distances [dmin, dmax] from
-    the centre, and the unimodal falloff slope is largest there at the point nearest its peak.
-    """
-    cx, cy, cz = 0.5 * (lox + hix), 0.5 * (loy + hiy), 0.5 * (loz + hiz)
-    ex, ey, ez = 0.5 * (hix - lox), 0.5 * (hiy - loy), 0.5 * (hiz - loz)
-    h = o + PRIM_HEADER
-    dmin2 = 0.0
-    dmax2 = 0.0
-    for r in range(3):
-        a0, a1, a2 = p[o + 4 * r], p[o + 4 * r + 1], p[o + 4 * r + 2]
-        # local box: centre A c + t, half extent |A| e; offset from the skeleton point
-        off = a0 * cx + a1 * cy + a2 * cz + p[o + 4 * r + 3] - p[h + r]
-        half = abs(a0) * ex + abs(a1) * ey + abs(a2) * ez
-        gap = max(abs(off) - half, 0.0)
-        far = abs(off) + half
-        dmin2 += gap * gap
-        dmax2 += far * far
-    radius = p[o + 12]
-    fid = int(p[o + 13])
-    rmin = math.sqrt(dmin2) / radius
+@njit(cache=True, inline="always")
+def _slope_at(fid, rmin, rmax):
+    """max |df/dr| R of falloff fid over r/R in [rmin, rmax], as a fraction of its peak: the
+    slope rises from 0 at the skeleton to one peak and falls to 0 at R."""
     if rmin >= 1.0:
         return 0.0
-    r = min(max(SLOPE_PEAK[fid], rmin), math.sqrt(dmax2) / radius)
+    r = min(max(SLOPE_PEAK[fid], rmin), rmax)
     return 2.0 * r * abs(_fo_ds(fid, r * r)) / PEAK_SLOPE[fid]
+
+
+@njit(cache=True, inline="always")
+def _map_box(p, o, lox, loy, loz, hix, hiy, hiz):
+    """Centre and half extents of the box around the image of [lo, hi] under the 3x4 affine map
+    at params[o:o + 12]."""
+    cx, cy, cz = 0.5 * (lox + hix), 0.5 * (loy + hiy), 0.5 * (loz + hiz)
+    ex, ey, ez = 0.5 * (hix - lox), 0.5 * (hiy - loy), 0.5 * (hiz - loz)
+    return (p[o] * cx + p[o + 1] * cy + p[o + 2] * cz + p[o + 3],
+            p[o + 4] * cx + p[o + 5] * cy + p[o + 6] * cz + p[o + 7],
+            p[o + 8] * cx + p[o + 9] * cy + p[o + 10] * cz + p[o + 11],
+            abs(p[o]) * ex + abs(p[o + 1]) * ey + abs(p[o + 2]) * ez,
+            abs(p[o + 4]) * ex + abs(p[o + 5]) * ey + abs(p[o + 6]) * ez,
+            abs(p[o + 8]) * ex + abs(p[o + 9]) * ey + abs(p[o + 10]) * ez)
+
+
+@njit(cache=True)
+def _prim_lipschitz(op, p, o, lip, lox, loy, loz, hix, hiy, hiz):
+    """A bound on the primitive's |grad f| over the box (segment tracing's distance-aware bound,
+    Galin et al. 2020): the box, mapped to the primitive's frame, lies within rho of its
+    centre c, so distances to the skeleton lie in [d(c) - rho, d(c) + rho]; the falloff's slope
+    is bounded there.  ``lip`` is the primitive's global bound."""
+    qx, qy, qz, hx, hy, hz = _map_box(p, o, lox, loy, loz, hix, hiy, hiz)
+    rho = math.sqrt(hx * hx + hy * hy + hz * hz)
+    fid = int(p[o + 13])
+    if op != OP_CONE:
+        s, _, _, _ = _prim_s(op, p, o, qx, qy, qz)
+        radius = p[o + 12]
+        d = math.sqrt(s) * radius
+        return lip * _slope_at(fid, max(d - rho, 0.0) / radius, (d + rho) / radius)
+    # cone: field radius R(t) varies along the axis; bound R over the t the box can reach
+    h = o + PRIM_HEADER
+    ax, ay, az = p[h], p[h + 1], p[h + 2]
+    ux, uy, uz = p[h + 3] - ax, p[h + 4] - ay, p[h + 5] - az
+    length = math.sqrt(ux * ux + uy * uy + uz * uz)
+    tc = ((qx - ax) * ux + (qy - ay) * uy + (qz - az) * uz) / (length * length)
+    t = min(max(tc, 0.0), 1.0)
+    dx, dy, dz = qx - ax - t * ux, qy - ay - t * uy, qz - az - t * uz
+    d = math.sqrt(dx * dx + dy * dy + dz * dz)
+    ra, rb = p[h + 6], p[h + 7]
+    t0 = min(max(tc - rho / length, 0.0), 1.0)
+    t1 = min(max(tc + rho / length, 0.0), 1.0)
+    r0, r1 = ra + t0 * (rb - ra), ra + t1 * (rb - ra)
+    rlo, rhi = min(r0, r1), max(r0, r1)
+    # lip = SLOPE (1 + |dR| / L) / min(ra, rb) * |A|: rescale its 1 / min(ra, rb) to 1 / rlo
+    return lip * _slope_at(fid, max(d - rho, 0.0) / rhi, (d + rho) / rlo) * min(ra, rb) / rlo
 
 
 @njit(cache=True)
 def lipschitz_box(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, vs):
     """A bound on |grad f| over the box [lo, hi] (world coordinates): the tree's Lipschitz rules
-    (sum at blends, max at CSG) over only the primitives whose boxes meet it."""
+    (sum at blends, max at CSG) over only the primitives whose boxes meet it, each with its
+    distance-aware bound; through a warp the box is carried into the warp's child frame (as a
+    cube around the warped centre, grown by the warp's stretch) and the result scaled back.
+    Uses vs[:, 0] as the value stack and vs[:, 1:7] to save regions across warps."""
     n = code.shape[0]
     sp = 0
+    pp = 0
     i = 0
     while i < n:
         op = code[i, 0]
-        if op <= OP_CYLINDER or op == OP_PUSHPT:
+        if op <= OP_CYLINDER:
             if _misses(boxes, i, lox, loy, loz, hix, hiy, hiz):
                 vs[sp, 0] = 0.0
-            elif op == OP_POINT:
-                vs[sp, 0] = lips[i] * _point_slope(params, code[i, 1], lox, loy, loz, hix, hiy,
-                                                   hiz)
             else:
-                vs[sp, 0] = lips[i]
+                vs[sp, 0] = _prim_lipschitz(op, params, code[i, 1], lips[i], lox, loy, loz,
+                                            hix, hiy, hiz)
             sp += 1
-            i = i + 1 if op != OP_PUSHPT else code[i, 2]
-        elif op == OP_BOX:
+            i += 1
+        elif op == OP_BOX or op == OP_PUSHPT or op == OP_BEND or op == OP_TWIST \
+                or op == OP_TAPER:
             if _misses(boxes, i, lox, loy, loz, hix, hiy, hiz):
                 vs[sp, 0] = 0.0
                 sp += 1
                 i = code[i, 2]
-            else:
-                i += 1
+                continue
+            o = code[i, 1]
+            if op == OP_PUSHPT:  # save the region, carry it into the warp's output frame
+                pp += 1
+                vs[pp, 1], vs[pp, 2], vs[pp, 3] = lox, loy, loz
+                vs[pp, 4], vs[pp, 5], vs[pp, 6] = hix, hiy, hiz
+                cx, cy, cz, ex, ey, ez = _map_box(params, o, lox, loy, loz, hix, hiy, hiz)
+                lox, loy, loz = cx - ex, cy - ey, cz - ez
+                hix, hiy, hiz = cx + ex, cy + ey, cz + ez
+            elif op != OP_BOX:  # a warp: the query map moves points by at most stretch * dist
+                cx, cy, cz = 0.5 * (lox + hix), 0.5 * (loy + hiy), 0.5 * (loz + hiz)
+                ex, ey, ez = 0.5 * (hix - lox), 0.5 * (hiy - loy), 0.5 * (hiz - loz)
+                reach = lips[i] * math.sqrt(ex * ex + ey * ey + ez * ez)
+                wx, wy, wz = _warp(op, params, o, cx, cy, cz, vs, 0, 0)
+                lox, loy, loz = wx - reach, wy - reach, wz - reach
+                hix, hiy, hiz = wx + reach, wy + reach, wz + reach
+            i += 1
+        elif op == OP_POPPT:
+            vs[sp - 1, 0] *= lips[i]
+            lox, loy, loz = vs[pp, 1], vs[pp, 2], vs[pp, 3]
+            hix, hiy, hiz = vs[pp, 4], vs[pp, 5], vs[pp, 6]
+            pp -= 1
+            i += 1
         elif is_paint(op):
             i += 1
         elif op == OP_ZERO:

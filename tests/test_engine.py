@@ -142,3 +142,21 @@ def test_specialised_program_is_short_for_a_small_cell():
     c = 0.5 * (lo + hi) + np.array([0.9, 0.0, 0.0])
     m = S.specialize(prog.code, prog.boxes, prog.lips, c - 0.05, c + 0.05, oc, ob, ol)
     assert 0 < m < n // 10
+
+
+@SETTINGS
+@given(trees(), st.integers(0, 2**31), st.floats(0.02, 0.6))
+def test_local_lipschitz_bounds_hold_on_random_trees(tree, seed, frac):
+    """The distance-aware bounds (through warps too) bound |grad f| over every box."""
+    prog = tree.program()
+    P = sample_points(tree, 40, seed)
+    lo, hi = tree.bounds()
+    if np.any(lo > hi):
+        return
+    size = frac * (hi - lo) + 1e-3
+    bound = prog.lipschitz(P, P + size)
+    rng = np.random.default_rng(seed)
+    for corner, lip in zip(P, bound, strict=True):
+        Q = rng.uniform(corner, corner + size, (200, 3))
+        g = np.linalg.norm(tree.reference(Q)[1], axis=1)
+        assert g.max() <= lip * (1 + 1e-9) + 1e-12

@@ -9,6 +9,7 @@ import numpy as np
 
 from .. import __version__
 from ..nodes import Node
+from .figures_cmd import figures
 from .mesh_cmd import mesh
 from .render_cmd import render
 from .scenes import BUILTIN, resolve_scene
@@ -48,6 +49,7 @@ def list_models() -> None:
         click.echo(name)
 
 
+main.add_command(figures)
 main.add_command(mesh)
 main.add_command(render)
 

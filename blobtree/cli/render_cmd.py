@@ -11,7 +11,7 @@ from ..render import Camera, save_image
 from ..render import render as render_image
 from ..render.camera import default_camera
 from .cluster import cluster, cluster_options
-from .scenes import resolve_scene
+from .scenes import resolve_scene, scene_camera
 
 
 def _floats(n: int):
@@ -72,14 +72,17 @@ def render(scene, output, size, samples, eye, target, up, fov, no_shadows, backg
         tree = resolve_scene(scene)
         prog = tree.program()
         camera = None
-        if eye is not None or target is not None or fov is not None:
+        if eye is None and target is None and fov is None:  # a built-in model's own view
+            view = scene_camera(scene, tree, width, height)
+            camera = None if view is None else Camera(**view)
+        else:
             if eye is None or target is None or fov is None:
                 framed = default_camera(prog, width, height)
                 eye, target = eye or framed.eye, target or framed.target
                 fov = framed.fov if fov is None else fov
             camera = Camera(eye=eye, target=target, up=up, fov=fov)
         with cluster(scheduler, dask_workers, quiet) as client:
-            img = render_image(tree if client else prog, width, height, camera=camera,
+            img = render_image(tree, width, height, camera=camera,
                                samples=samples, shadows=not no_shadows, background=background,
                                tile=tile, progress=not quiet, scheduler=client,
                                checkpoint=checkpoint, resume=resume)
@@ -87,7 +90,8 @@ def render(scene, output, size, samples, eye, target, up, fov, no_shadows, backg
     except ValueError as exc:
         raise click.ClickException(str(exc)) from None
     except KeyboardInterrupt:
-        click.echo("interrupted; nothing written", err=True)
+        kept = f"; finished tiles kept in {checkpoint} (--resume)" if checkpoint else ""
+        click.echo(f"interrupted; nothing written{kept}", err=True)
         sys.exit(130)
     if not quiet:
         click.echo(f"{output}: {width}x{height}, {time.perf_counter() - start:.2f} s", err=True)

@@ -19,6 +19,16 @@ BUILTIN: dict[str, Callable[[], Node]] = {
 }
 
 
+#: Built-in models seen best from a figure's viewpoint (the shell's apex is at -y, see murex.py).
+VIEWS = {"murex": models.FIGURES["14"], **{f"figure{k}": f for k, f in models.FIGURES.items()}}
+
+
+def scene_camera(name: str, tree: Node, width: int, height: int) -> dict | None:
+    """The camera (eye, target, up, fov) a built-in model is best seen from, or None."""
+    view = VIEWS.get(name)
+    return None if view is None else view.camera(tree, aspect=width / height)
+
+
 def resolve_scene(name: str) -> Node:
     """Load ``name`` as a scene file if it is one, else build the built-in model of that name."""
     if name in BUILTIN:

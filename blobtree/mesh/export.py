@@ -3,20 +3,15 @@
 from __future__ import annotations
 
 import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from ..files import atomic_path
+
 #: file extension -> trimesh export type
 FORMATS = {".ply": "ply", ".obj": "obj", ".stl": "stl", ".glb": "glb"}
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
 
 
 @dataclass
@@ -95,13 +90,6 @@ class Mesh:
         data = self.to_trimesh().export(file_type=kind)
         if isinstance(data, str):
             data = data.encode()
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent or ".")
-        try:
-            with os.fdopen(fd, "wb") as fh:
-                fh.write(data)
-            os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes it private
-            os.replace(tmp, path)
-        except BaseException:
-            os.unlink(tmp)
-            raise
+        with atomic_path(path) as tmp:
+            tmp.write_bytes(data)
         return path

@@ -69,13 +69,17 @@ BUMP_INTERVAL = 19
 
 
 def figure_3(n_values: Sequence[float] = tuple(range(1, 11))) -> Node:
-    """Figure 3 / Eq. 4: two points joined by the super-elliptic blend, n = 1..10, in a row."""
+    """Figure 3 / Eq. 4: two points joined by the super-elliptic blend, n = 1..10, in two rows
+    of five (n grows left to right, then top to bottom)."""
     pairs = [
         super_blend(Point(radius=1.0, center=(-0.42, 0, 0)), Point(radius=1.0, center=(0.42, 0, 0)),
                     n=n)
         for n in n_values
     ]
-    return _row(pairs, LOCAL_VIEW, (0, 1, 0), gap=0.3)
+    half = (len(pairs) + 1) // 2
+    rows = [_row(pairs[:half], LOCAL_VIEW, (0, 1, 0), gap=0.3),
+            _row(pairs[half:], LOCAL_VIEW, (0, 1, 0), gap=0.3)]
+    return _row(rows, LOCAL_VIEW, (0, 1, 0), gap=0.3, column=True)
 
 
 def figure_4(radii: Sequence[float] = (1.0, 1.4, DEFAULT.point_radius)) -> Node:
@@ -190,9 +194,9 @@ class Figure:
     up: tuple[float, float, float] = SHELL_UP
     fov: float = 30.0
 
-    def camera(self, tree: Node | None = None) -> dict[str, tuple[float, ...] | float]:
-        """Suggested camera (eye, target, up, fov in degrees) framing the tree along ``view``."""
-        lo, hi = (self.build() if tree is None else tree).bounds()
+    def frame(self, tree: Node) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, float]:
+        """(target, right, up, half width, half height) of the tree seen along ``view``."""
+        lo, hi = tree.bounds()
         target = 0.5 * (lo + hi)
         d = np.asarray(self.view, float) / np.linalg.norm(self.view)
         u = np.asarray(self.up, float) - d * (d @ self.up)
@@ -200,8 +204,24 @@ class Figure:
         r = np.cross(d, u)
         corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
                             for z in (lo[2], hi[2])]) - target
-        half = max(np.abs(corners @ r).max(), np.abs(corners @ u).max())
-        depth = np.abs(corners @ d).max()
+        return target, r, u, float(np.abs(corners @ r).max()), float(np.abs(corners @ u).max())
+
+    def aspect(self, tree: Node | None = None) -> float:
+        """Width / height that fits the tree seen along ``view`` (between 1 and 3)."""
+        _, _, _, half_w, half_h = self.frame(self.build() if tree is None else tree)
+        return float(np.clip(half_w / half_h, 1.0, 3.0))
+
+    def camera(self, tree: Node | None = None, aspect: float = 1.0
+               ) -> dict[str, tuple[float, ...] | float]:
+        """Suggested camera (eye, target, up, fov in degrees) framing the tree along ``view``
+        in an image of the given width / height."""
+        tree = self.build() if tree is None else tree
+        target, r, u, half_w, half_h = self.frame(tree)
+        lo, hi = tree.bounds()
+        d = np.cross(u, r)
+        depth = float(np.abs((np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
+                                         for z in (lo[2], hi[2])]) - target) @ d).max())
+        half = max(half_h, half_w / aspect)
         distance = 1.08 * half / math.tan(math.radians(self.fov) / 2.0) + depth
         eye = target - d * distance
         return {"eye": tuple(map(float, eye)), "target": tuple(map(float, target)),

@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 from PIL import Image
+
+from ..files import atomic_path
 
 _FORMATS = {".png": "PNG", ".jpg": "JPEG", ".jpeg": "JPEG", ".tif": "TIFF", ".tiff": "TIFF",
             ".bmp": "BMP", ".ppm": "PPM"}
@@ -24,13 +25,6 @@ def save_image(img: np.ndarray, path: str | os.PathLike) -> Path:
     if img.dtype != np.uint8 or img.ndim != 3 or img.shape[2] != 3 or 0 in img.shape:
         raise ValueError(f"img must be a non-empty (H, W, 3) uint8 array, got shape {img.shape} "
                          f"dtype {img.dtype}")
-    directory = path.parent if str(path.parent) else Path(".")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            Image.fromarray(img, "RGB").save(fh, format=fmt)
-        os.replace(tmp, path)
-    except BaseException:
-        os.unlink(tmp)
-        raise
+    with atomic_path(path) as tmp:
+        Image.fromarray(img, "RGB").save(tmp, format=fmt)
     return path

@@ -1,0 +1,48 @@
+"""``blobtree figures``: every figure of the paper that shows a model, as PNGs."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import click
+
+from ..models.figures import FIGURES, TEXTURE_FIGURES
+from ..render import Camera, render, save_image
+
+ALL = sorted([*FIGURES, *TEXTURE_FIGURES], key=int)
+#: Figures whose models draw random numbers (bumps, canal spine bends, textures).
+SEEDED = {"8", "9", "11", "14"}
+
+
+@click.command()
+@click.option("-o", "--out", "out_dir", required=True,
+              type=click.Path(file_okay=False, path_type=Path),
+              help="Directory for figure-N.png (created if missing).")
+@click.option("--height", default=480, show_default=True, type=click.IntRange(16, 8192),
+              help="Image height in pixels; the width follows each figure's shape.")
+@click.option("--samples", default=2, show_default=True, type=click.IntRange(1, 64),
+              help="Anti-aliasing samples per pixel.")
+@click.option("--shadows/--no-shadows", default=True, show_default=True)
+@click.option("--only", multiple=True, type=click.Choice(ALL),
+              help="Only these figure numbers (repeatable).")
+@click.option("--seed", default=0, show_default=True, help="Seed of the shell's randomness.")
+def figures(out_dir: Path, height: int, samples: int, shadows: bool, only: tuple[str, ...],
+            seed: int) -> None:
+    """Render the paper's figures (3-11 and 14 ray traced; 12, the textures, drawn)."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    for key in only or ALL:
+        start = time.perf_counter()
+        path = out_dir / f"figure-{key}.png"
+        if key in TEXTURE_FIGURES:
+            save_image(TEXTURE_FIGURES[key].draw(), path)
+        else:
+            fig = FIGURES[key]
+            tree = fig.build(seed) if key in SEEDED else fig.build()
+            aspect = fig.aspect(tree)
+            width = max(16, round(height * aspect))
+            camera = Camera(**fig.camera(tree, aspect=width / height))
+            img = render(tree, width, height, camera=camera, samples=samples, shadows=shadows,
+                         background=(1.0, 1.0, 1.0))
+            save_image(img, path)
+        click.echo(f"figure {key}: {path} ({time.perf_counter() - start:.1f} s)")
