@@ -14,6 +14,7 @@ are printed too.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 import time
 from pathlib import Path
@@ -49,9 +50,8 @@ def main() -> None:
     local, t_local = timed(lambda: bt.render(tree, n, n, **opts))
     print(f"local engine      {n}x{n}: {t_local:8.2f} s")
 
-    cluster = connect(workers=args.workers)
-    client, t_start = timed(cluster.__enter__)
-    with cluster:
+    with contextlib.ExitStack() as stack:
+        client, t_start = timed(lambda: stack.enter_context(connect(workers=args.workers)))
         print(f"cluster start ({args.workers} workers): {t_start:8.2f} s")
         _, t_cold = timed(lambda: bt.render(tree, 32, 32, **opts, scheduler=client))
         print(f"cold 32x32 on the cluster (workers load kernels, compile): {t_cold:.2f} s")
