@@ -9,6 +9,7 @@ import click
 
 from ..mesh import polygonize
 from ..mesh.export import FORMATS
+from .cluster import cluster, cluster_options
 from .scenes import resolve_scene
 
 
@@ -29,7 +30,9 @@ from .scenes import resolve_scene
     show_default=True,
     help="Cells across the longest side of the scene's bounds.",
 )
-def mesh(scene: str, output: Path, resolution: int) -> None:
+@cluster_options
+def mesh(scene: str, output: Path, resolution: int, scheduler: str | None,
+         dask_workers: int | None) -> None:
     """Polygonize SCENE into a watertight triangle mesh with normals and vertex colours."""
     if output.suffix.lower() not in FORMATS:
         raise click.BadParameter(
@@ -38,7 +41,8 @@ def mesh(scene: str, output: Path, resolution: int) -> None:
     tree = resolve_scene(scene)
     start = time.perf_counter()
     try:
-        result = polygonize(tree, resolution=resolution, progress=True)
+        with cluster(scheduler, dask_workers) as client:
+            result = polygonize(tree, resolution=resolution, progress=True, scheduler=client)
     except ValueError as exc:
         raise click.UsageError(str(exc)) from None
     result.save(output)

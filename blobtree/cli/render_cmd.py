@@ -10,6 +10,7 @@ import click
 from ..render import Camera, save_image
 from ..render import render as render_image
 from ..render.camera import default_camera
+from .cluster import cluster, cluster_options
 from .scenes import resolve_scene, scene_camera
 
 
@@ -54,12 +55,19 @@ def _size(ctx, param, value):
 @click.option("--background", default="1,1,1", show_default=True, callback=_floats(3),
               help="Background colour r,g,b in [0, 1].")
 @click.option("--tile", default=64, show_default=True, help="Tile side in pixels.")
+@click.option("--checkpoint", type=click.Path(file_okay=False),
+              help="Directory keeping each finished tile, so an interrupted render can resume.")
+@click.option("--resume", is_flag=True,
+              help="Reuse the tiles in --checkpoint left by an interrupted run of this render.")
+@cluster_options
 @click.option("--quiet", is_flag=True, help="No progress bar or timing.")
 def render(scene, output, size, samples, eye, target, up, fov, no_shadows, background, tile,
-           quiet) -> None:
+           checkpoint, resume, scheduler, dask_workers, quiet) -> None:
     """Ray-trace SCENE (a built-in model name or a JSON scene file) into an image."""
     width, height = size
     start = time.perf_counter()
+    if resume and checkpoint is None:
+        raise click.BadParameter("--resume needs --checkpoint DIR", param_hint="--resume")
     try:
         tree = resolve_scene(scene)
         prog = tree.program()
@@ -73,14 +81,17 @@ def render(scene, output, size, samples, eye, target, up, fov, no_shadows, backg
                 eye, target = eye or framed.eye, target or framed.target
                 fov = framed.fov if fov is None else fov
             camera = Camera(eye=eye, target=target, up=up, fov=fov)
-        img = render_image(prog, width, height, camera=camera, samples=samples,
-                           shadows=not no_shadows, background=background, tile=tile,
-                           progress=not quiet)
+        with cluster(scheduler, dask_workers, quiet) as client:
+            img = render_image(tree, width, height, camera=camera,
+                               samples=samples, shadows=not no_shadows, background=background,
+                               tile=tile, progress=not quiet, scheduler=client,
+                               checkpoint=checkpoint, resume=resume)
         save_image(img, output)
     except ValueError as exc:
         raise click.ClickException(str(exc)) from None
     except KeyboardInterrupt:
-        click.echo("interrupted; nothing written", err=True)
+        kept = f"; finished tiles kept in {checkpoint} (--resume)" if checkpoint else ""
+        click.echo(f"interrupted; nothing written{kept}", err=True)
         sys.exit(130)
     if not quiet:
         click.echo(f"{output}: {width}x{height}, {time.perf_counter() - start:.2f} s", err=True)

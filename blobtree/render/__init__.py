@@ -7,6 +7,8 @@ assembled into the same bytes.
 
 from __future__ import annotations
 
+import contextlib
+import os
 from collections.abc import Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor, as_completed
 
@@ -45,6 +47,7 @@ def render(tree, width: int, height: int, camera: Camera | None = None,
            lights: Sequence[Light] | None = None, samples: int = 1, shadows: bool = True,
            background: tuple[float, float, float] = (1.0, 1.0, 1.0), *,
            progress: bool = False, tile: int = TILE, threads: int | None = None,
+           scheduler=None, checkpoint: str | os.PathLike | None = None, resume: bool = False,
            **shading) -> np.ndarray:
     """Ray-trace ``tree`` into an (height, width, 3) uint8 sRGB image.
 
@@ -53,6 +56,12 @@ def render(tree, width: int, height: int, camera: Camera | None = None,
     triple in [0, 1]; ``progress`` shows a bar over tiles; ``threads`` (default: numba's thread
     count) render tiles side by side; ``shading`` may set ``ambient``, ``specular``,
     ``shininess`` and the jitter ``seed`` (see :class:`RenderSettings`).
+
+    ``scheduler`` (a Dask address "tcp://HOST:PORT" or ``distributed.Client``; ``tree`` must
+    then be a tree, not a program) renders the tiles on that cluster instead, with the same
+    bytes.  ``checkpoint`` (a directory) keeps each finished tile there; ``resume=True`` reuses
+    the tiles a previous, interrupted run of the same job left there (see
+    :class:`blobtree.distributed.Checkpoint`).
     """
     settings = RenderSettings(width=width, height=height, samples=samples, shadows=bool(shadows),
                               background=background, **shading)
@@ -66,25 +75,47 @@ def render(tree, width: int, height: int, camera: Camera | None = None,
     elif not isinstance(camera, Camera):
         raise ValueError(f"camera must be a blobtree Camera or None, got {camera!r}")
     lights = default_lights(camera) if lights is None else list(lights)
-    cam, packed = camera.packed(width, height), pack_lights(lights)
     img = np.empty((height, width, 3), dtype=np.uint8)
-
-    def work(rect: tuple[int, int, int, int]) -> None:
-        x0, y0, x1, y1 = rect
-        img[y0:y1, x0:x1] = trace_rect(prog, cam, packed, settings, x0, y0, x1, y1)
-
     rects = list(tiles(width, height, tile))
+    store = None
+    if checkpoint is not None:
+        from ..distributed import Checkpoint, job_key
+
+        store = Checkpoint(checkpoint, job_key(prog, camera, lights, settings), resume=resume)
+        rects = store.restore(img, rects)
+    elif resume:
+        raise ValueError("resume=True needs a checkpoint directory (checkpoint=None given)")
+    if scheduler is None:
+        done = _local_tiles(prog, camera, lights, settings, rects, threads)
+    else:
+        from ..distributed import remote_tiles
+
+        done = remote_tiles(scheduler, tree, camera, lights, settings, rects)
     bar = tqdm(total=len(rects), unit="tile", desc="render", leave=False, disable=not progress)
+    with bar, contextlib.closing(done):
+        for (x0, y0, x1, y1), pixels in done:
+            img[y0:y1, x0:x1] = pixels
+            if store is not None:
+                store.save((x0, y0, x1, y1), pixels)
+            bar.update()
+    return img
+
+
+def _local_tiles(prog, camera: Camera, lights: list[Light], settings: RenderSettings,
+                 rects: list[tuple[int, int, int, int]], threads: int
+                 ) -> Iterator[tuple[tuple[int, int, int, int], np.ndarray]]:
+    """Render ``rects`` on ``threads`` cores of this machine, yielding (rect, pixels) as tiles
+    finish; closing the iterator drops the tiles not started and waits for the running ones."""
+    cam = camera.packed(settings.width, settings.height)
+    packed = pack_lights(lights)
     # Each tile runs on one core without the GIL; a pool hands tiles out as cores free up.
     pool = ThreadPoolExecutor(max_workers=threads)
     try:
-        for done in as_completed([pool.submit(work, r) for r in rects]):
-            done.result()
-            bar.update()
-    finally:  # on Ctrl-C or an error: drop the tiles not started, wait for the running ones
+        futures = {pool.submit(trace_rect, prog, cam, packed, settings, *r): r for r in rects}
+        for done in as_completed(futures):
+            yield futures[done], done.result()
+    finally:
         pool.shutdown(wait=True, cancel_futures=True)
-        bar.close()
-    return img
 
 
 def intersect(tree, origins: np.ndarray, directions: np.ndarray,

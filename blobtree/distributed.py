@@ -1,0 +1,284 @@
+"""Scale-out on Dask ``distributed`` (the optional extra ``blobtree[dask]``), and checkpoints.
+
+A render is cut into tiles (:func:`blobtree.render.tiles`), each rendered by
+:func:`blobtree.render.render_tile` on some worker: tiles are byte-identical however the image is
+cut, so the assembled image equals the local one.  A mesh sends its batched field evaluations
+(culling bounds, lattice sampling, vertex placement) to the workers in chunks large enough to take
+the same evaluation path as locally, so it equals the local mesh.  The tree travels as its scene
+file text; each worker process compiles a scene once and keeps the program, keyed by the text's
+hash.  A worker lost mid-job only delays it: Dask reruns its tasks elsewhere.
+
+:class:`Checkpoint` keeps the finished tiles of a render in a directory so an interrupted job
+resumes without redoing them; it needs no cluster.
+
+``distributed`` is imported only when a cluster is used: the core never needs it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import threading
+from collections import OrderedDict
+from collections.abc import Iterator, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .compile import GRID_MIN_POINTS, Program
+from .files import atomic_path
+from .io import dumps, loads
+from .nodes import Node
+
+if TYPE_CHECKING:
+    from distributed import Client
+
+    from .mesh import Mesh
+    from .render import Camera, Light, RenderSettings
+
+Rect = tuple[int, int, int, int]
+
+#: Seconds to wait for a scheduler before giving up.
+CONNECT_TIMEOUT = 10.0
+#: Compiled programs kept per worker process (most recently used scenes).
+CACHE_SCENES = 4
+#: Evaluation chunks per worker for a mesh (more than one balances uneven chunks).
+CHUNKS_PER_WORKER = 4
+
+_PROGRAMS: OrderedDict[str, Program] = OrderedDict()
+_PROGRAMS_LOCK = threading.Lock()
+
+
+def _distributed():
+    """The ``distributed`` module, or ImportError saying how to install it."""
+    try:
+        import distributed
+    except ImportError as exc:
+        raise ImportError("a Dask cluster needs the optional extra: pip install 'blobtree[dask]'"
+                          ) from exc
+    return distributed
+
+
+def scene_text(tree: Node) -> str:
+    """The scene-file text a tree travels as; ValueError for anything but a tree."""
+    if not isinstance(tree, Node):
+        raise ValueError(f"a Dask job needs a BlobTree node (its scene file is sent to the "
+                         f"workers), got {type(tree).__name__}")
+    return dumps(tree)
+
+
+def _scene(text: str) -> str:
+    """Worker task holding the scene text: unlike scattered data, Dask recomputes it if every
+    worker holding it is lost."""
+    return text
+
+
+def send_scene(client: Client, tree: Node) -> Any:
+    """A future of the tree's scene text on the cluster, for tasks to take as an argument."""
+    return client.submit(_scene, scene_text(tree), pure=False)
+
+
+def worker_program(text: str) -> Program:
+    """The compiled program of a scene text, compiled once per process (LRU of scenes)."""
+    key = hashlib.sha256(text.encode()).hexdigest()
+    with _PROGRAMS_LOCK:  # a worker may run tasks on several threads
+        prog = _PROGRAMS.pop(key, None)
+        if prog is None:
+            prog = loads(text).program()
+        _PROGRAMS[key] = prog
+        while len(_PROGRAMS) > CACHE_SCENES:
+            _PROGRAMS.popitem(last=False)
+    return prog
+
+
+@contextlib.contextmanager
+def connect(scheduler: str | Client | None = None, workers: int | None = None,
+            timeout: float | None = None) -> Iterator[Client | None]:
+    """A Dask client: ``scheduler`` (an address "tcp://HOST:PORT", or a Client used as is), or
+    a new local cluster of ``workers`` single-threaded processes, or None (the local engine)
+    when neither is given.  Closes what it opened.  ``timeout``: seconds to wait for the
+    scheduler (default ``CONNECT_TIMEOUT``)."""
+    timeout = CONNECT_TIMEOUT if timeout is None else timeout
+    if scheduler is not None and workers is not None:
+        raise ValueError(f"give either scheduler or workers, not both (got scheduler="
+                         f"{scheduler!r}, workers={workers!r})")
+    if scheduler is None and workers is None:
+        yield None
+        return
+    dd = _distributed()
+    if isinstance(scheduler, dd.Client):
+        yield scheduler
+        return
+    if workers is not None:
+        if isinstance(workers, bool) or not (isinstance(workers, int) and workers >= 1):
+            raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
+        # one core per process: numba's own threads would compete with the other workers
+        with dd.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                             dashboard_address=":0", env={"NUMBA_NUM_THREADS": "1"}
+                             ) as cluster, dd.Client(cluster) as client:
+            yield client
+        return
+    if not (isinstance(scheduler, str) and scheduler):
+        raise ValueError(f"scheduler must be an address such as 'tcp://HOST:8786' or a "
+                         f"distributed.Client, got {scheduler!r}")
+    try:
+        client = dd.Client(scheduler, timeout=timeout)
+    except (OSError, TimeoutError, ValueError, TypeError) as exc:
+        raise ValueError(f"scheduler {scheduler!r}: cannot connect within {timeout:g} s "
+                         f"({type(exc).__name__}: {exc})") from None
+    with client:
+        yield client
+
+
+def describe(client: Client) -> str:
+    """The cluster a client uses: scheduler address and number of workers."""
+    nthreads = client.nthreads()
+    return (f"cluster: {client.scheduler.address}, {len(nthreads)} workers, "
+            f"{sum(nthreads.values())} threads")
+
+
+# ----- rendering ----------------------------------------------------------------------------
+def _render_tile(text: str, camera: Camera, lights: list[Light], settings: RenderSettings,
+                 rect: Rect) -> np.ndarray:
+    """Worker task: one tile of the image."""
+    from .render import render_tile
+
+    return render_tile(worker_program(text), camera, lights, settings, *rect)
+
+
+def remote_tiles(scheduler: str | Client, tree: Node, camera: Camera, lights: Sequence[Light],
+                 settings: RenderSettings, rects: Sequence[Rect]
+                 ) -> Iterator[tuple[Rect, np.ndarray]]:
+    """Render ``rects`` on the cluster, yielding (rect, pixels) as tiles finish.
+
+    Closing the iterator early (an error, Ctrl-C) cancels the tiles not yet done.
+    """
+    scene_text(tree)  # checked before connecting
+    dd = _distributed()
+    with connect(scheduler) as client:
+        scene = send_scene(client, tree)
+        futures = {client.submit(_render_tile, scene, camera, list(lights), settings, rect,
+                                 pure=False): rect for rect in rects}
+        try:
+            for future in dd.as_completed(list(futures)):
+                yield futures.pop(future), future.result()
+        finally:
+            client.cancel(list(futures))
+
+
+# ----- meshing ------------------------------------------------------------------------------
+def _evaluate(text: str, method: str, *arrays: np.ndarray) -> Any:
+    """Worker task: ``Program.<method>(*arrays)`` for the scene."""
+    return getattr(worker_program(text), method)(*arrays)
+
+
+class RemoteProgram:
+    """A program whose batched evaluations (``field``, ``evaluate``, ``lipschitz``) run on the
+    cluster, giving the same values as the local program: chunks of at least
+    ``GRID_MIN_POINTS`` rows (or the whole batch when smaller) take the same evaluation path as
+    the whole batch would."""
+
+    def __init__(self, client: Client, tree: Node):
+        self.client = client
+        self.bounds = tree.program().bounds
+        self.scene = send_scene(client, tree)
+        self.parts = CHUNKS_PER_WORKER * max(1, len(client.nthreads()))
+
+    def _map(self, method: str, *arrays: np.ndarray) -> list[Any]:
+        n = len(arrays[0])
+        k = min(self.parts, max(1, n // GRID_MIN_POINTS))
+        bounds = np.linspace(0, n, k + 1).astype(np.int64)
+        futures = [self.client.submit(_evaluate, self.scene, method,
+                                      *(a[i:j] for a in arrays), pure=False)
+                   for i, j in zip(bounds[:-1], bounds[1:], strict=True)]
+        try:
+            return self.client.gather(futures)
+        finally:
+            self.client.cancel(futures)
+
+    def field(self, points: np.ndarray) -> np.ndarray:
+        """Field values (N,) at (N, 3) points."""
+        return np.concatenate(self._map("field", points))
+
+    def evaluate(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(field, gradient, colour) at (N, 3) points."""
+        parts = self._map("evaluate", points)
+        return tuple(np.concatenate([p[i] for p in parts]) for i in range(3))
+
+    def lipschitz(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """A bound on |grad f| over each box [lo, hi] (M, 3)."""
+        return np.concatenate(self._map("lipschitz", lo, hi))
+
+
+def polygonize_on(scheduler: str | Client, tree: Node, **options: Any) -> Mesh:
+    """:func:`blobtree.polygonize` with its field evaluations on a Dask cluster."""
+    from .mesh import polygonize
+
+    with connect(scheduler) as client:
+        return polygonize(RemoteProgram(client, tree), **options)
+
+
+# ----- checkpoints --------------------------------------------------------------------------
+def job_key(prog: Program, camera: Camera, lights: Sequence[Light],
+            settings: RenderSettings) -> str:
+    """A hash of everything that decides a render's pixels: program, camera, lights, settings."""
+    h = hashlib.sha256()
+    for a in (*prog.arrays, *prog.bounds):
+        h.update(np.ascontiguousarray(a).tobytes())
+    h.update(repr((prog.depth, camera, list(lights), settings)).encode())
+    return h.hexdigest()
+
+
+class Checkpoint:
+    """Finished tiles of one render in a directory: ``tile-X0-Y0-X1-Y1.npy`` per tile (written
+    atomically) and ``manifest.json`` naming the job, so tiles of another job are never used."""
+
+    MANIFEST = "manifest.json"
+
+    def __init__(self, directory: str | Path, job: str, resume: bool = False):
+        self.directory = Path(directory)
+        try:
+            self.directory.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise ValueError(f"checkpoint directory {str(directory)!r}: {exc}") from None
+        self.job = job
+        self.manifest = self.directory / self.MANIFEST
+        self.started = self.manifest.exists()
+        if self.started:
+            held = json.loads(self.manifest.read_text()).get("job")
+            if not resume:
+                raise ValueError(
+                    f"checkpoint directory {str(directory)!r} already holds a render; resume it "
+                    "(resume=True, --resume) or use an empty directory")
+            if held != job:
+                raise ValueError(
+                    f"checkpoint directory {str(directory)!r} holds another job (scene, camera, "
+                    "lights or settings differ); use an empty directory")
+
+    def _path(self, rect: Rect) -> Path:
+        return self.directory / "tile-{}-{}-{}-{}.npy".format(*rect)
+
+    def restore(self, img: np.ndarray, rects: Sequence[Rect]) -> list[Rect]:
+        """Copy the finished tiles among ``rects`` into ``img``; return the others."""
+        todo = []
+        for rect in rects:
+            x0, y0, x1, y1 = rect
+            path = self._path(rect)
+            pixels = np.load(path) if path.exists() else None
+            if pixels is not None and pixels.shape == img[y0:y1, x0:x1].shape \
+                    and pixels.dtype == img.dtype:
+                img[y0:y1, x0:x1] = pixels
+            else:
+                todo.append(rect)
+        return todo
+
+    def save(self, rect: Rect, pixels: np.ndarray) -> None:
+        """Keep one finished tile (the manifest is written with the first one)."""
+        if not self.started:
+            with atomic_path(self.manifest) as tmp:
+                tmp.write_text(json.dumps({"job": self.job}))
+            self.started = True
+        with atomic_path(self._path(rect)) as tmp, open(tmp, "wb") as fh:
+            np.save(fh, pixels)
