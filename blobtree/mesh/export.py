@@ -7,11 +7,34 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from numba import njit
 
 from ..files import atomic_path
 
 #: file extension -> trimesh export type
 FORMATS = {".ply": "ply", ".obj": "obj", ".stl": "stl", ".glb": "glb"}
+
+
+@njit(cache=True)
+def _union_faces(faces, nverts):
+    """Union-find over vertices joined by faces; returns each vertex's root."""
+    parent = np.arange(nverts)
+
+    def find(a):
+        while parent[a] != a:
+            parent[a] = parent[parent[a]]
+            a = parent[a]
+        return a
+
+    for f in range(faces.shape[0]):
+        r0 = find(faces[f, 0])
+        for k in range(1, 3):
+            rk = find(faces[f, k])
+            if rk != r0:
+                parent[rk] = r0
+    for v in range(nverts):
+        parent[v] = find(v)
+    return parent
 
 
 @dataclass
@@ -60,6 +83,13 @@ class Mesh:
         edges = len(np.unique(np.minimum(fwd, rev)))
         used = len(np.unique(self.faces))
         return used - edges + len(self.faces)
+
+    def component_count(self) -> int:
+        """Number of connected pieces (faces sharing a vertex are connected)."""
+        if len(self.faces) == 0:
+            return 0
+        roots = _union_faces(np.ascontiguousarray(self.faces, dtype=np.int64), len(self.vertices))
+        return len(np.unique(roots[self.faces[:, 0]]))
 
     def to_trimesh(self):
         """The mesh as a ``trimesh.Trimesh`` (vertices kept as they are, not merged)."""
