@@ -158,29 +158,14 @@ def _cell_box(c, lo, size, dims, pad, clo, chi):
 
 
 @njit(parallel=True, cache=True)
-def build_grid(code, boxes, lips, lo, size, dims, pad):
-    """Specialise the program to every cell of a grid: (start (ncell + 1), code, boxes, lips),
-    cell c's program being rows start[c]:start[c + 1] (skip targets relative to its start)."""
+def _grid_pass(code, boxes, lips, lo, size, dims, pad, lengths, gc, gb, gl, fill):
+    """Specialise to every cell: record the lengths (``fill`` False), or copy the programs to
+    rows lengths[c]:lengths[c] + m (``fill`` True; lengths then holds the starts)."""
     ncell = dims[0] * dims[1] * dims[2]
     n = code.shape[0]
-    lengths = np.zeros(ncell + 1, dtype=np.int64)
     nchunk = min(ncell, 256)
     for ch in prange(nchunk):
-        oc = np.empty((n, 4), dtype=np.int64)
-        ob = np.empty((n, 6))
-        ol = np.empty(n)
-        clo = np.empty(3)
-        chi = np.empty(3)
-        for c in range(ch, ncell, nchunk):
-            _cell_box(c, lo, size, dims, pad, clo, chi)
-            lengths[c + 1] = specialize(code, boxes, lips, clo, chi, oc, ob, ol)
-    start = np.cumsum(lengths)
-    total = start[-1]
-    gc = np.empty((total, 4), dtype=np.int64)
-    gb = np.empty((total, 6))
-    gl = np.empty(total)
-    for ch in prange(nchunk):  # again, copying out (specialize may write past its final length)
-        oc = np.empty((n, 4), dtype=np.int64)
+        oc = np.empty((n, 4), dtype=np.int64)  # scratch: specialize may write past its length
         ob = np.empty((n, 6))
         ol = np.empty(n)
         clo = np.empty(3)
@@ -188,10 +173,25 @@ def build_grid(code, boxes, lips, lo, size, dims, pad):
         for c in range(ch, ncell, nchunk):
             _cell_box(c, lo, size, dims, pad, clo, chi)
             m = specialize(code, boxes, lips, clo, chi, oc, ob, ol)
-            a = start[c]
-            gc[a:a + m] = oc[:m]
-            gb[a:a + m] = ob[:m]
-            gl[a:a + m] = ol[:m]
+            if not fill:
+                lengths[c + 1] = m
+            else:
+                a = lengths[c]
+                gc[a:a + m] = oc[:m]
+                gb[a:a + m] = ob[:m]
+                gl[a:a + m] = ol[:m]
+
+
+def build_grid(code, boxes, lips, lo, size, dims, pad):
+    """Specialise the program to every cell of a grid: (start (ncell + 1), code, boxes, lips),
+    cell c's program being rows start[c]:start[c + 1] (skip targets relative to its start)."""
+    lengths = np.zeros(int(np.prod(dims)) + 1, dtype=np.int64)
+    gc, gb, gl = np.empty((0, 4), dtype=np.int64), np.empty((0, 6)), np.empty(0)
+    _grid_pass(code, boxes, lips, lo, size, dims, pad, lengths, gc, gb, gl, False)
+    start = np.cumsum(lengths)
+    total = int(start[-1])
+    gc, gb, gl = np.empty((total, 4), dtype=np.int64), np.empty((total, 6)), np.empty(total)
+    _grid_pass(code, boxes, lips, lo, size, dims, pad, start, gc, gb, gl, True)
     return start, gc, gb, gl
 
 
