@@ -1,0 +1,36 @@
+"""What texturing costs: the Murex shell rendered textured and plain (issue 6 bench).
+
+Run: python bench/bench_texture.py [--size 512]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import blobtree as bt
+from blobtree.models.figures import FIGURES
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--size", type=int, default=512)
+    ap.add_argument("--repeat", type=int, default=2)
+    args = ap.parse_args()
+    times = {}
+    for textured in (False, True):
+        shell = bt.models.murex(textured=textured)
+        camera = bt.Camera(**FIGURES["14"].camera(shell))
+        bt.render(shell, 64, 64, camera=camera, progress=False)  # warm up
+        best = float("inf")
+        for _ in range(args.repeat):
+            start = time.perf_counter()
+            bt.render(shell, args.size, args.size, camera=camera, progress=False)
+            best = min(best, time.perf_counter() - start)
+        times[textured] = best
+        print(f"{'textured' if textured else 'plain   '}: {best:.2f} s")
+    print(f"texturing adds {100 * (times[True] / times[False] - 1):+.0f}% (bar: at most +50%)")
+
+
+if __name__ == "__main__":
+    main()
