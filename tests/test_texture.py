@@ -143,3 +143,11 @@ def test_images_and_errors(tmp_path):
         bt.Point().texture(img, mapping="cylindrical")
     with pytest.raises(ValueError, match="wrap"):
         bt.Point().texture(img, wrap="mirror")
+
+
+def test_texture_colours_flow_to_mesh_vertices():
+    tree = bt.Point(radius=2.0).texture(uv_ramp) + bt.Cone((0, 0, 0), (2, 0, 0), 0.8, 0.4)
+    mesh = bt.polygonize(tree, resolution=24, progress=False)
+    # colours are taken just before the last Newton step moves each vertex a hair
+    np.testing.assert_allclose(mesh.colors, tree.albedo(mesh.vertices), atol=0.01)
+    assert mesh.colors[:, 0].std() > 0.1  # the ramp shows, not one flat colour
