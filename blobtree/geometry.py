@@ -28,11 +28,8 @@ def check_vec3(name: str, value: Sequence[float]) -> np.ndarray:
 
 def check_positive(name: str, value: float) -> float:
     """A finite number > 0, or ValueError naming the parameter."""
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number > 0, got {value!r}") from None
-    if not (math.isfinite(v) and v > 0.0):
+    v = check_finite(name, value)
+    if v <= 0.0:
         raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
     return v
 
@@ -121,13 +118,6 @@ def box_intersection(boxes: Sequence[Box]) -> Box:
         lo = np.maximum(lo, b[0])
         hi = np.minimum(hi, b[1])
     return lo, hi
-
-
-def box_corners(box: Box) -> np.ndarray:
-    """The 8 corners of a box, (8, 3)."""
-    lo, hi = box
-    idx = np.array([[i >> 2 & 1, i >> 1 & 1, i & 1] for i in range(8)], dtype=bool)
-    return np.where(idx, hi, lo)
 
 
 def transform_box(m: np.ndarray, box: Box) -> Box:

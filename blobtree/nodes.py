@@ -788,6 +788,13 @@ class Warp(Unary):
 
     @cached_property
     def own_box(self) -> geo.Box:
+        """The box of the deformed child (empty when the child's support is empty)."""
+        if geo.is_empty(self.child._box(geo.IDENTITY)):
+            return geo.empty_box()
+        return self._deformed_box()
+
+    def _deformed_box(self) -> geo.Box:
+        """The box of the child's box under the forward deformation."""
         raise NotImplementedError
 
     def _ref(self, P, look=None):
@@ -879,8 +886,7 @@ class Bend(Warp):
         m[0, a], m[1, b], m[2, c] = 1.0, self.sign, 1.0
         return m
 
-    @cached_property
-    def own_box(self):
+    def _deformed_box(self):
         lo, hi = self.child_box
         perm = self._perm
         clo, chi = geo.transform_box(geo.affine(perm), (lo, hi))
@@ -955,8 +961,7 @@ class Twist(Warp):
         _, i, j = self.index
         return float(max(np.hypot(x, y) for x in (lo[i], hi[i]) for y in (lo[j], hi[j])))
 
-    @cached_property
-    def own_box(self):
+    def _deformed_box(self):
         lo, hi = (b.copy() for b in self.child_box)
         _, i, j = self.index
         lo[[i, j]], hi[[i, j]] = -self._reach, self._reach
@@ -1005,8 +1010,7 @@ class Taper(Warp):
         J[:, j, a] = np.where(free, -Q[:, j] * self.rate / s, 0.0)
         return Q, J
 
-    @cached_property
-    def own_box(self):
+    def _deformed_box(self):
         lo, hi = (b.copy() for b in self.child_box)
         _, i, j = self.index
         smin, smax = self.s_range

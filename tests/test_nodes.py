@@ -210,3 +210,11 @@ def test_sum_of_nodes_and_flattening():
     nodes = [bt.Point(center=(i, 0, 0)) for i in range(5)]
     s = sum(nodes)
     assert isinstance(s, bt.Blend) and len(s.children) == 5
+
+
+def test_warp_of_an_empty_child_is_empty():
+    empty = bt.Point(radius=1.0) & bt.Point(radius=1.0, center=(5, 0, 0))
+    for w in (empty.bend(10, 1.0), empty.twist(30), empty.taper(0.1)):
+        lo, hi = w.bounds()
+        assert np.all(lo > hi)
+        assert np.all(w.field(np.zeros((3, 3))) == 0.0)
