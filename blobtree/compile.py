@@ -22,8 +22,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import cached_property
 
+import numba
 import numpy as np
 
+from . import batch as B
 from . import geometry as geo
 from . import kernels as K
 from . import nodes as N
@@ -96,7 +98,9 @@ class Program:
         g = np.empty((n, 3)) if mode > 0 else np.empty((0, 3))
         c = np.empty((n, 3)) if mode > 1 else np.empty((0, 3))
         grid = self.grid if n >= GRID_MIN_POINTS else None
-        if grid is not None:
+        if grid is not None and mode == 0:
+            B.field_sorted(grid, self.params, self.depth, P, f, numba.get_num_threads())
+        elif grid is not None:
             S.eval_grid_batch(*grid.arrays, self.params, *grid.frame, P, mode, self.depth,
                               f, g, c)
         else:
