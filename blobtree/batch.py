@@ -201,7 +201,7 @@ def _bucket_counts(P, lo, size, dims, cell, counts):
 
 @njit(parallel=True, cache=True)
 def _bucket_scatter(P, cell, offsets, xyz, pos):
-    """Pass 2: copy each point to its cell's run of xyz (3, M), recording where in pos."""
+    """Pass 2: copy each point to its cell's run of xyz (M, 3), recording where in pos."""
     n = P.shape[0]
     nparts = offsets.shape[0]
     for t in prange(nparts):
@@ -212,7 +212,7 @@ def _bucket_scatter(P, cell, offsets, xyz, pos):
             else:
                 k = offsets[t, c]
                 offsets[t, c] = k + 1
-                xyz[0, k], xyz[1, k], xyz[2, k] = P[j, 0], P[j, 1], P[j, 2]
+                xyz[k, 0], xyz[k, 1], xyz[k, 2] = P[j, 0], P[j, 1], P[j, 2]
                 pos[j] = k
 
 
@@ -220,7 +220,7 @@ def _bucket_scatter(P, cell, offsets, xyz, pos):
 def _eval_runs(start, gc, gb, params, first, xyz, depth, slab, vals):
     """Evaluate the cell-sorted points xyz in slabs of ``slab`` points (one slab per task, so
     crowded cells spread over the threads), each cell's run in batches of SUB."""
-    m = xyz.shape[1]
+    m = xyz.shape[0]
     for t in prange((m + slab - 1) // slab):
         s0, s1 = t * slab, min(m, (t + 1) * slab)
         pts = np.zeros((depth + 1, 3, SUB))
@@ -234,7 +234,7 @@ def _eval_runs(start, gc, gb, params, first, xyz, depth, slab, vals):
             nb = min(SUB, first[c + 1] - s, s1 - s)
             for r in range(3):
                 for k in range(nb):
-                    pts[0, r, k] = xyz[r, s + k]
+                    pts[0, r, k] = xyz[s + k, r]
             eval_rows(gc, params, gb, start[c], start[c + 1], pts, nb, vs, ps)
             for k in range(nb):
                 vals[s + k] = vs[0, k]
@@ -264,8 +264,8 @@ def field_sorted(grid, params: np.ndarray, depth: int, P: np.ndarray, out: np.nd
     counts = np.empty((nparts, ncell), dtype=np.int64)
     first = np.zeros(ncell + 1, dtype=np.int64)
     m = min(len(P), BLOCK)
-    cell, pos = np.empty(m, dtype=np.int32), np.empty(m, dtype=np.int64)
-    xyz, vals = np.empty((3, m)), np.empty(m)
+    cell, pos = np.empty(m, dtype=np.int32), np.empty(m, dtype=np.int32)
+    xyz, vals = np.empty((m, 3)), np.empty(m)
     for a in range(0, len(P), BLOCK):
         Q = P[a:a + BLOCK]
         _bucket_counts(Q, lo, size, dims, cell, counts)
@@ -273,5 +273,5 @@ def field_sorted(grid, params: np.ndarray, depth: int, P: np.ndarray, out: np.nd
         offsets = first[:-1] + np.cumsum(counts, axis=0) - counts  # each part's place
         k = int(first[-1])
         _bucket_scatter(Q, cell, offsets, xyz, pos)
-        _eval_runs(start, gc, gb, params, first, xyz[:, :k], depth, SLAB, vals)
+        _eval_runs(start, gc, gb, params, first, xyz[:k], depth, SLAB, vals)
         _unsort(vals, pos[:len(Q)], out[a:a + BLOCK])
