@@ -44,29 +44,18 @@ def _prim_rows(op, fid, p, o, pts, pp, vs, sp, nb):
 
 @njit(cache=True, error_model="numpy")
 def _prim_batch(op, fid, p, o, pts, pp, vs, sp, nb):
-    """``_prim_rows`` with op and falloff as constants, so each loop is compiled on its own."""
-    if fid == 0:
-        if op == K.OP_POINT:
-            _prim_rows(K.OP_POINT, 0, p, o, pts, pp, vs, sp, nb)
-        elif op == K.OP_CONE:
-            _prim_rows(K.OP_CONE, 0, p, o, pts, pp, vs, sp, nb)
-        elif op == K.OP_TORUS:
-            _prim_rows(K.OP_TORUS, 0, p, o, pts, pp, vs, sp, nb)
-        elif op == K.OP_DISC:
-            _prim_rows(K.OP_DISC, 0, p, o, pts, pp, vs, sp, nb)
-        else:
-            _prim_rows(K.OP_CYLINDER, 0, p, o, pts, pp, vs, sp, nb)
+    """``_prim_rows`` with the opcode as a constant, so each loop is compiled on its own (the
+    compiler unswitches the loop-invariant falloff test)."""
+    if op == K.OP_POINT:
+        _prim_rows(K.OP_POINT, fid, p, o, pts, pp, vs, sp, nb)
+    elif op == K.OP_CONE:
+        _prim_rows(K.OP_CONE, fid, p, o, pts, pp, vs, sp, nb)
+    elif op == K.OP_TORUS:
+        _prim_rows(K.OP_TORUS, fid, p, o, pts, pp, vs, sp, nb)
+    elif op == K.OP_DISC:
+        _prim_rows(K.OP_DISC, fid, p, o, pts, pp, vs, sp, nb)
     else:
-        if op == K.OP_POINT:
-            _prim_rows(K.OP_POINT, 1, p, o, pts, pp, vs, sp, nb)
-        elif op == K.OP_CONE:
-            _prim_rows(K.OP_CONE, 1, p, o, pts, pp, vs, sp, nb)
-        elif op == K.OP_TORUS:
-            _prim_rows(K.OP_TORUS, 1, p, o, pts, pp, vs, sp, nb)
-        elif op == K.OP_DISC:
-            _prim_rows(K.OP_DISC, 1, p, o, pts, pp, vs, sp, nb)
-        else:
-            _prim_rows(K.OP_CYLINDER, 1, p, o, pts, pp, vs, sp, nb)
+        _prim_rows(K.OP_CYLINDER, fid, p, o, pts, pp, vs, sp, nb)
 
 
 @njit(cache=True, inline="always")
