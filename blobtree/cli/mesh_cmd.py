@@ -7,7 +7,6 @@ from pathlib import Path
 
 import click
 
-from ..mesh import polygonize
 from ..mesh.export import FORMATS
 from .cluster import cluster, cluster_options
 from .scenes import resolve_scene
@@ -38,6 +37,8 @@ def mesh(scene: str, output: Path, resolution: int, scheduler: str | None,
         raise click.BadParameter(
             f"extension {output.suffix!r} is not one of {', '.join(FORMATS)}", param_hint="-o"
         )
+    from ..mesh import polygonize  # the mesher's kernels load only for this command
+
     tree = resolve_scene(scene)
     start = time.perf_counter()
     try:

@@ -14,7 +14,6 @@ from concurrent.futures import ThreadPoolExecutor, as_completed
 
 import numba
 import numpy as np
-from tqdm import tqdm
 
 from .camera import Camera, default_camera
 from .image import save_image
@@ -91,13 +90,18 @@ def render(tree, width: int, height: int, camera: Camera | None = None,
         from ..distributed import remote_tiles
 
         done = remote_tiles(scheduler, tree, camera, lights, settings, rects)
-    bar = tqdm(total=len(rects), unit="tile", desc="render", leave=False, disable=not progress)
+    bar = contextlib.nullcontext()
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(rects), unit="tile", desc="render", leave=False)
     with bar, contextlib.closing(done):
         for (x0, y0, x1, y1), pixels in done:
             img[y0:y1, x0:x1] = pixels
             if store is not None:
                 store.save((x0, y0, x1, y1), pixels)
-            bar.update()
+            if progress:
+                bar.update()
     return img
 
 

@@ -3,8 +3,10 @@
 Along a ray p(t) = o + t d the tracer keeps a candidate segment [t, t + delta].  The engine bounds
 the field's gradient over the segment's bounding box (``kernels.lipschitz_box``); with that local
 Lipschitz bound L, the field cannot reach the iso-value 0.5 before t + (0.5 - f(t)) / L, so that
-step is safe.  The next candidate segment is ``GROWTH`` times the step just taken.  Where the
-support boxes miss the segment, L is 0 and the whole segment is skipped.  Steps never fall below
+step is safe, and so is every further step of that kind while it stays inside the segment: one
+bound (the costlier half of a step) serves several field evaluations.  The next candidate segment
+is ``SEGMENT_GROWTH`` times the one just crossed.  Where the support boxes miss the segment, L is
+0 and the whole segment is skipped.  Steps never fall below
 ``eps`` (a feature thinner than eps along the ray may be skipped: eps is a fraction of a pixel for
 camera rays), and once a step lands inside (f >= 0.5) the root is refined by the Illinois variant
 of regula falsi, which keeps the root bracketed.  :func:`march_cone` applies the same bound to a
@@ -22,8 +24,12 @@ from numba import njit, prange
 from .. import kernels
 
 ISO = 0.5
-#: Growth factor of the candidate segment (the paper's c).
+#: Growth factor of a cone's candidate segment over its last step (the paper's c).
 GROWTH = 1.5
+#: Growth factor of a ray's candidate segment over the last one (several steps share its bound).
+SEGMENT_GROWTH = 2.0
+#: A cone stops once its safe step falls below this fraction of its radius.
+CONE_STOP = 0.1
 #: Regula-falsi iterations after a bracket is found (the bracket shrinks superlinearly).
 REFINE_ITERS = 24
 #: Refinement stops once the root is located to this fraction of the smallest step.
@@ -87,7 +93,7 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
     """First t in [t0, t1] where the field reaches ISO along the unit-direction ray, or -1.
 
     A ray that starts inside (f >= ISO at t0) hits at t0.  ``eps_abs + eps_rel * t`` is the
-    smallest step.
+    smallest step.  One Lipschitz bound serves every step inside its candidate segment.
     """
     t = t0
     f = kernels.eval_point(code, params, boxes, ox + t * dx, oy + t * dy, oz + t * dz, 0,
@@ -96,6 +102,7 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
         return t
     delta = delta0
     while t < t1:
+        ts = t
         te = min(t + delta, t1)
         ax = ox + t * dx
         ay = oy + t * dy
@@ -105,24 +112,22 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
         bz = oz + te * dz
         lam = kernels.lipschitz_box(code, params, boxes, lips, min(ax, bx), min(ay, by),
                                     min(az, bz), max(ax, bx), max(ay, by), max(az, bz), vstack)
-        step = te - t
-        if lam > 0.0:
-            step = min(step, -f / lam)
-        eps = eps_abs + eps_rel * t
-        step = max(step, eps)
-        tn = t + step
-        if tn > t1:
-            tn = t1
-        fn = kernels.eval_point(code, params, boxes, ox + tn * dx, oy + tn * dy, oz + tn * dz, 0,
-                                vstack, pstack) - ISO
-        if fn >= 0.0:
-            return _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, t, f, tn, fn,
-                           REFINE_TOL * eps, vstack, pstack)
-        if tn >= t1:
-            break
-        t = tn
-        f = fn
-        delta = GROWTH * step
+        while True:  # lam bounds |grad f| over the whole segment: step on inside it
+            step = te - t
+            if lam > 0.0:
+                step = min(step, -f / lam)
+            eps = eps_abs + eps_rel * t
+            tn = min(t + max(step, eps), t1)
+            fn = kernels.eval_point(code, params, boxes, ox + tn * dx, oy + tn * dy,
+                                    oz + tn * dz, 0, vstack, pstack) - ISO
+            if fn >= 0.0:
+                return _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, t, f, tn, fn,
+                               REFINE_TOL * eps, vstack, pstack)
+            t = tn
+            f = fn
+            if t >= te:
+                break
+        delta = SEGMENT_GROWTH * (t - ts)
     return -1.0
 
 
@@ -155,7 +160,7 @@ def march_cone(code, params, boxes, lips, ex, ey, ez, ax, ay, az, tan_a, t, t1, 
                 f = kernels.eval_point(code, params, boxes, px, py, pz, 0, vstack, pstack) - ISO
                 have_f = True
             step = min(step, (-f / lam - t * tan_a) / (1.0 + tan_a))
-            if step < 0.25 * t * tan_a:
+            if step < CONE_STOP * t * tan_a:
                 return t
         t += step
         have_f = False
