@@ -5,7 +5,8 @@ their children and push the result, warps push a transformed point on a point st
 primitive and every BOX instruction first tests its world box; a miss pushes 0 and jumps over
 the subtree (``code[i, 2]``), so a subtree whose box misses the point costs one test.
 
-``eval_point`` and ``lipschitz_box`` are the building blocks other kernels (mesh, render) call.
+``eval_point``, ``lipschitz_box`` and ``lipschitz_segment`` are the building blocks other kernels
+(mesh, render) call.
 """
 
 from __future__ import annotations
@@ -623,13 +624,41 @@ def _prim_lipschitz(op, p, o, lip, lox, loy, loz, hix, hiy, hiz):
     return lip * _slope_at(fid, max(d - rho, 0.0) / rhi, (d + rho) / rlo) * min(ra, rb) / rlo
 
 
-@njit(cache=True)
-def lipschitz_box(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, vs):
-    """A bound on |grad f| over the box [lo, hi] (world coordinates): the tree's Lipschitz rules
-    (sum at blends, max at CSG) over only the primitives whose boxes meet it, each with its
-    distance-aware bound; through a warp the box is carried into the warp's child frame (as a
-    cube around the warped centre, grown by the warp's stretch) and the result scaled back.
-    Uses vs[:, 0] as the value stack and vs[:, 1:7] to save regions across warps."""
+@njit(cache=True, inline="always")
+def _point_along(p, o, ox, oy, oz, dx, dy, dz, length):
+    """A bound on |df/dt| of a point primitive along the segment o + t d, 0 <= t <= length
+    (segment tracing's directional bound, Galin et al. 2020).  In the primitive's frame the
+    segment is q(t) = w + t e about the centre, so s = u^2 + v^2 with u = |e| (t - t_c) / R,
+    v the perpendicular distance over R, and df/dt = f'(s) 2 |e| u / R; |f'(s)| falls as s
+    grows for both falloffs, so it is bounded by its value at the smallest s on the segment."""
+    h = o + PRIM_HEADER
+    ex = p[o] * dx + p[o + 1] * dy + p[o + 2] * dz
+    ey = p[o + 4] * dx + p[o + 5] * dy + p[o + 6] * dz
+    ez = p[o + 8] * dx + p[o + 9] * dy + p[o + 10] * dz
+    wx = p[o] * ox + p[o + 1] * oy + p[o + 2] * oz + p[o + 3] - p[h]
+    wy = p[o + 4] * ox + p[o + 5] * oy + p[o + 6] * oz + p[o + 7] - p[h + 1]
+    wz = p[o + 8] * ox + p[o + 9] * oy + p[o + 10] * oz + p[o + 11] - p[h + 2]
+    e2 = ex * ex + ey * ey + ez * ez
+    if e2 == 0.0:
+        return 0.0
+    r = p[o + 12]
+    we = wx * ex + wy * ey + wz * ez
+    v2 = max(wx * wx + wy * wy + wz * wz - we * we / e2, 0.0) / (r * r)
+    e = math.sqrt(e2)
+    u0 = we / (e * r)  # u at t = 0 and at t = length
+    u1 = u0 + e * length / r
+    umin2 = 0.0 if u0 <= 0.0 <= u1 else min(u0 * u0, u1 * u1)
+    smin = umin2 + v2
+    if smin >= 1.0:
+        return 0.0
+    return 2.0 * e / r * max(abs(u0), abs(u1)) * abs(_fo_ds(int(p[o + 13]), smin))
+
+
+@njit(cache=True, inline="always")
+def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox, oy, oz, dx,
+               dy, dz, length, vs):
+    """``lipschitz_box``, and with ``ray`` also the directional bound of point primitives
+    outside warps along the segment o + t d, 0 <= t <= length inside the box."""
     n = code.shape[0]
     sp = 0
     pp = 0
@@ -642,6 +671,9 @@ def lipschitz_box(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, vs):
             else:
                 vs[sp, 0] = _prim_lipschitz(op, params, code[i, 1], lips[i], lox, loy, loz,
                                             hix, hiy, hiz)
+                if ray and op == OP_POINT and pp == 0:
+                    vs[sp, 0] = min(vs[sp, 0], _point_along(params, code[i, 1], ox, oy, oz, dx,
+                                                            dy, dz, length))
             sp += 1
             i += 1
         elif op == OP_BOX or op == OP_PUSHPT or op == OP_BEND or op == OP_TWIST \
@@ -692,6 +724,29 @@ def lipschitz_box(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, vs):
             sp = b + 1
             i += 1
     return vs[0, 0]
+
+
+@njit(cache=True)
+def lipschitz_box(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, vs):
+    """A bound on |grad f| over the box [lo, hi] (world coordinates): the tree's Lipschitz rules
+    (sum at blends, max at CSG) over only the primitives whose boxes meet it, each with its
+    distance-aware bound; through a warp the box is carried into the warp's child frame (as a
+    cube around the warped centre, grown by the warp's stretch) and the result scaled back.
+    Uses vs[:, 0] as the value stack and vs[:, 1:7] to save regions across warps."""
+    return _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, False, 0.0, 0.0,
+                      0.0, 0.0, 0.0, 0.0, 0.0, vs)
+
+
+@njit(cache=True)
+def lipschitz_segment(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, length, vs):
+    """A bound on |df/dt| along the segment o + t d, 0 <= t <= length (d a unit vector): the
+    bound of ``lipschitz_box`` over the segment's box, tightened for point primitives by their
+    directional bound, which is small where the segment passes a primitive sideways (so grazing
+    rays take long steps)."""
+    bx, by, bz = ox + length * dx, oy + length * dy, oz + length * dz
+    return _lipschitz(code, params, boxes, lips, min(ox, bx), min(oy, by), min(oz, bz),
+                      max(ox, bx), max(oy, by), max(oz, bz), True, ox, oy, oz, dx, dy, dz,
+                      length, vs)
 
 
 CHUNK = 512

@@ -192,3 +192,27 @@ def test_local_lipschitz_bounds_hold_on_random_trees(tree, seed, frac):
         Q = rng.uniform(corner, corner + size, (200, 3))
         g = np.linalg.norm(tree.reference(Q)[1], axis=1)
         assert g.max() <= lip * (1 + 1e-9) + 1e-12
+
+
+@SETTINGS
+@given(trees(), st.integers(0, 2**31), st.floats(0.02, 1.0))
+def test_segment_lipschitz_bounds_hold_on_random_trees(tree, seed, frac):
+    """The bound along a segment (directional for point primitives) bounds |grad f . d| on it."""
+    from blobtree import kernels as K
+
+    prog = tree.program()
+    lo, hi = tree.bounds()
+    if np.any(lo > hi):
+        return
+    rng = np.random.default_rng(seed)
+    starts = sample_points(tree, 30, seed)
+    dirs = rng.normal(size=(30, 3))
+    dirs /= np.linalg.norm(dirs, axis=1)[:, None]
+    length = frac * float(np.linalg.norm(hi - lo)) + 1e-3
+    vs, _ = K.scratch(prog.depth)
+    code, params, boxes, lips = prog.arrays
+    for o, d in zip(starts, dirs, strict=True):
+        bound = K.lipschitz_segment(code, params, boxes, lips, *o, *d, length, vs)
+        Q = o + np.linspace(0.0, length, 200)[:, None] * d
+        slope = np.abs(tree.reference(Q)[1] @ d)
+        assert slope.max() <= bound * (1 + 1e-9) + 1e-12

@@ -1,16 +1,18 @@
 """Ray-surface intersection by segment tracing (Galin, Guerin, Paris, Peytavie, CGF 2020).
 
 Along a ray p(t) = o + t d the tracer keeps a candidate segment [t, t + delta].  The engine bounds
-the field's gradient over the segment's bounding box (``kernels.lipschitz_box``); with that local
-Lipschitz bound L, the field cannot reach the iso-value 0.5 before t + (0.5 - f(t)) / L, so that
-step is safe, and so is every further step of that kind while it stays inside the segment: one
-bound (the costlier half of a step) serves several field evaluations.  The next candidate segment
-is ``SEGMENT_GROWTH`` times the one just crossed.  Where the support boxes miss the segment, L is
-0 and the whole segment is skipped.  Steps never fall below
-``eps`` (a feature thinner than eps along the ray may be skipped: eps is a fraction of a pixel for
-camera rays), and once a step lands inside (f >= 0.5) the root is refined by the Illinois variant
-of regula falsi, which keeps the root bracketed.  :func:`march_cone` applies the same bound to a
-whole cone of camera rays at once, so a block of pixels skips empty space together.
+the field's derivative along the segment (``kernels.lipschitz_segment``: the gradient bound over
+the segment's box, and for point primitives the directional bound, small where the ray passes a
+primitive sideways).  With that local Lipschitz bound L, the field cannot reach the iso-value 0.5
+before t + (0.5 - f(t)) / L, so that step is safe, and so is every further step of that kind
+while it stays inside the segment: one bound (the costlier half of a step) serves several field
+evaluations.  The next candidate segment is ``SEGMENT_GROWTH`` times the one just crossed.  Where
+the support boxes miss the segment, L is 0 and the whole segment is skipped.  Steps never fall
+below ``eps`` (a feature thinner than eps along the ray may be skipped: eps is a fraction of a
+pixel for camera rays), and once a step lands inside (f >= 0.5) the root is refined by the
+Illinois variant of regula falsi, which keeps the root bracketed.  :func:`march_cone` applies the
+same bound to a whole cone of camera rays at once, so a block of pixels skips empty space
+together.
 
 All kernels take the program arrays ``code, params, boxes, lips`` of ``Program.arrays`` and the
 per-thread scratch of ``kernels.scratch``.
@@ -104,15 +106,9 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
     while t < t1:
         ts = t
         te = min(t + delta, t1)
-        ax = ox + t * dx
-        ay = oy + t * dy
-        az = oz + t * dz
-        bx = ox + te * dx
-        by = oy + te * dy
-        bz = oz + te * dz
-        lam = kernels.lipschitz_box(code, params, boxes, lips, min(ax, bx), min(ay, by),
-                                    min(az, bz), max(ax, bx), max(ay, by), max(az, bz), vstack)
-        while True:  # lam bounds |grad f| over the whole segment: step on inside it
+        lam = kernels.lipschitz_segment(code, params, boxes, lips, ox + t * dx, oy + t * dy,
+                                        oz + t * dz, dx, dy, dz, te - t, vstack)
+        while True:  # lam bounds |df/dt| over the whole segment: step on inside it
             step = te - t
             if lam > 0.0:
                 step = min(step, -f / lam)
