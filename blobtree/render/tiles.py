@@ -229,8 +229,10 @@ def _render_rect(code, params, boxes, lips, depth, cam, lights, lo, hi, width, h
                  shadows, background, ambient, specular, shininess, eps_abs, shadow_eps, seed,
                  x0, y0, x1, y1):
     """Pixels [x0, x1) x [y0, y1), on one core without the GIL: blocks of BLOCK^2 pixels, each
-    first marched as one cone, then as cones of SUB^2 pixels; each of those specialises the program
-    to the stretch of its cone just past where it stopped, then traces its rays one by one."""
+    first marched as one cone, then as cones of SUB^2 pixels (on the program specialised to the
+    block cone's stretch past where it stopped, then on the whole program beyond it); each of
+    those specialises the program to the stretch of its cone just past where it stopped, then
+    traces its rays one by one."""
     out = np.empty((y1 - y0, x1 - x0, 3), dtype=np.uint8)
     bg = np.empty(3)
     bg_bytes = np.empty(3, dtype=np.uint8)
@@ -262,6 +264,9 @@ def _render_rect(code, params, boxes, lips, depth, cam, lights, lo, hi, width, h
     oc = np.empty((ncode, 4), dtype=np.int64)
     ob = np.empty((ncode, 6))
     ol = np.empty(ncode)
+    boc = np.empty((ncode, 4), dtype=np.int64)
+    bob = np.empty((ncode, 6))
+    bol = np.empty(ncode)
     rlo = np.empty(3)
     rhi = np.empty(3)
     for b in range(nb):
@@ -269,8 +274,16 @@ def _render_rect(code, params, boxes, lips, depth, cam, lights, lo, hi, width, h
         by0 = (gy0 + b // nbx) * BLOCK
         bx1 = min(bx0 + BLOCK, width)
         by1 = min(by0 + BLOCK, height)
-        tb = _block_start(code, params, boxes, lips, cam, width, height, bx0, by0, bx1, by1,
-                          t_near, t_far, vstack, pstack)[0]
+        tb, bax, bay, baz, btan = _block_start(code, params, boxes, lips, cam, width, height,
+                                               bx0, by0, bx1, by1, t_near, t_far, vstack,
+                                               pstack)
+        # the block's cones march first on the program specialised to the block's stretch
+        t_blk = tb
+        blk = (code, boxes, lips)
+        if tb < np.inf:
+            t_blk = min(tb + LOCAL_SPAN * tb * btan, t_far)
+            blk = _localize(code, boxes, lips, cam, bax, bay, baz, btan,
+                            tb / np.sqrt(1.0 + btan * btan), t_blk, boc, bob, bol, rlo, rhi)
         for sy0 in range(by0, by1, SUB):
             for sx0 in range(bx0, bx1, SUB):
                 sx1 = min(sx0 + SUB, bx1)
@@ -281,9 +294,13 @@ def _render_rect(code, params, boxes, lips, depth, cam, lights, lo, hi, width, h
                 t_local = tb
                 local = (code, boxes, lips)
                 if tb < np.inf:
-                    ts, ax, ay, az, tan_a = _block_start(code, params, boxes, lips, cam, width,
-                                                         height, sx0, sy0, sx1, sy1, tb, t_far,
-                                                         vstack, pstack)
+                    ts, ax, ay, az, tan_a = _block_start(blk[0], params, blk[1], blk[2], cam,
+                                                         width, height, sx0, sy0, sx1, sy1, tb,
+                                                         t_blk, vstack, pstack)
+                    if ts == np.inf and t_blk < t_far:  # past the block's stretch
+                        ts, ax, ay, az, tan_a = _block_start(code, params, boxes, lips, cam,
+                                                             width, height, sx0, sy0, sx1, sy1,
+                                                             t_blk, t_far, vstack, pstack)
                     if ts < np.inf:
                         t_local = ts + LOCAL_SPAN * ts * tan_a
                         local = _localize(code, boxes, lips, cam, ax, ay, az, tan_a,
