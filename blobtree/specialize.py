@@ -33,6 +33,12 @@ def _contains(boxes, i, lo, hi):
 
 
 @njit(cache=True, inline="always")
+def _keeps_zeros(op):
+    """Operators whose zero children are not neutral, so specialisation keeps them as ZERO."""
+    return op == K.OP_CBLEND or op == K.OP_DIFF
+
+
+@njit(cache=True, inline="always")
 def _copy(code, boxes, lips, i, oc, ob, ol, n):
     for c in range(4):
         oc[n, c] = code[i, c]
@@ -96,9 +102,10 @@ def specialize(code, boxes, lips, lo, hi, oc, ob, ol):
         elif i >= ncode:
             break
         else:
-            # zeros vanish from blends, super-elliptic blends, unions and differences'
-            # subtrahends; controlled blends keep them in place (their pairs index children)
-            drop = top >= 0 and code[f_end[top] - 1, 0] != K.OP_CBLEND
+            # zeros vanish from blends, super-elliptic blends and unions; controlled blends keep
+            # them in place (their pairs index children), and so do differences (a zero
+            # subtrahend still caps the result at 1: min(f_0, 1 - 0))
+            drop = top >= 0 and not _keeps_zeros(code[f_end[top] - 1, 0])
             op = code[i, 0]
             if op <= K.OP_CYLINDER:
                 if _misses(boxes, i, lo, hi):
@@ -141,7 +148,7 @@ def specialize(code, boxes, lips, lo, hi, oc, ob, ol):
             if z and (cop == K.OP_INTER or K.is_paint(cop)
                       or (cop == K.OP_DIFF and f_first[top])):
                 f_dead[top] = True
-            if not z or cop == K.OP_CBLEND:
+            if not z or _keeps_zeros(cop):
                 f_kept[top] += 1
             f_first[top] = False
     return n

@@ -164,6 +164,20 @@ def test_cell_sorted_blocks_and_order(monkeypatch):
     assert np.count_nonzero(f) > 1000 and np.count_nonzero(f == 0.0) > 1000
 
 
+def test_specialised_difference_keeps_its_cap():
+    """A difference is min(f_0, 1 - f_1): where the subtrahend is specialised away the result is
+    still capped at 1 when the first child's blend exceeds 1 (found by hypothesis)."""
+    from blobtree.compile import GRID_MIN_POINTS
+
+    body = bt.Point(radius=1.0) + bt.Point(radius=1.0)
+    tree = body - bt.Point(center=(0.3, 0.0, 0.0), radius=0.2)
+    P = sample_points(tree, GRID_MIN_POINTS + 5000, 0)
+    ref = tree.reference(P)[0]
+    assert ref.max() == 1.0 and body.reference(P)[0].max() > 1.5
+    np.testing.assert_allclose(tree.program().field(P), ref, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(tree.program().evaluate(P)[0], ref, rtol=1e-9, atol=1e-12)
+
+
 def test_specialised_program_is_short_for_a_small_cell():
     from blobtree import specialize as S
 
