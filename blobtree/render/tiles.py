@@ -31,7 +31,7 @@ SHADOW_OFFSET = 1e-4
 #: Side in pixels of the cones marched before single rays (see ``_render_rect``).
 BLOCK, SUB = 16, 4
 #: Length of the stretch of a SUB cone (in cone radii) its specialised program covers.
-LOCAL_SPAN = 16.0
+LOCAL_SPAN = 32.0
 #: First candidate segment of a ray, as a fraction of its chord through the bounds box.
 DELTA0 = 0.02
 

@@ -30,6 +30,8 @@ ISO = 0.5
 GROWTH = 1.5
 #: Growth factor of a ray's candidate segment over the last one (several steps share its bound).
 SEGMENT_GROWTH = 2.0
+#: A ray takes a new bound once its step falls below 1 / REBOUND of what is left of the segment.
+REBOUND = 16.0
 #: A cone stops once its safe step falls below this fraction of its radius.
 CONE_STOP = 0.1
 #: Regula-falsi iterations after a bracket is found (the bracket shrinks superlinearly).
@@ -95,7 +97,9 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
     """First t in [t0, t1] where the field reaches ISO along the unit-direction ray, or -1.
 
     A ray that starts inside (f >= ISO at t0) hits at t0.  ``eps_abs + eps_rel * t`` is the
-    smallest step.  One Lipschitz bound serves every step inside its candidate segment.
+    smallest step.  One Lipschitz bound serves every step inside its candidate segment, unless
+    the steps it allows are short next to what is left of the segment (the bound is loose
+    there): then a shorter segment takes a new bound.
     """
     t = t0
     f = kernels.eval_point(code, params, boxes, ox + t * dx, oy + t * dy, oz + t * dz, 0,
@@ -119,11 +123,15 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
             if fn >= 0.0:
                 return _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, t, f, tn, fn,
                                REFINE_TOL * eps, vstack, pstack)
+            last = tn - t
             t = tn
             f = fn
             if t >= te:
+                delta = SEGMENT_GROWTH * (t - ts)
                 break
-        delta = SEGMENT_GROWTH * (t - ts)
+            if te - t > REBOUND * last:  # the bound is loose here: take one over a shorter stretch
+                delta = GROWTH * last
+                break
     return -1.0
 
 
