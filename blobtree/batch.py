@@ -15,11 +15,16 @@ evaluate the subtree exactly (a node's field is 0 outside its box), so the resul
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 from numba import njit, prange
 
 from . import kernels as K
 from .specialize import cell_of
+
+if TYPE_CHECKING:
+    from .compile import Grid
 
 #: Points per batch (the length of a value-stack row).
 SUB = 64
@@ -242,7 +247,7 @@ BLOCK = 1 << 20
 SLAB = 1 << 13
 
 
-def field_sorted(grid, params: np.ndarray, depth: int, P: np.ndarray, out: np.ndarray,
+def field_sorted(grid: Grid, params: np.ndarray, depth: int, P: np.ndarray, out: np.ndarray,
                  nparts: int) -> None:
     """Field values of the (N, 3) points P into out, through ``grid`` (compile.Grid): blocks of
     points are partitioned by cell in ``nparts`` parallel parts, evaluated cell by cell, and the

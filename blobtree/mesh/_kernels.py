@@ -258,25 +258,8 @@ def _block_fill(values, origins, cell_start, cells, dims, iso, off, keys, f0, f1
         scratch = np.empty(12 + 12 + 4 + 13, dtype=np.int64)
         v = np.empty(8)
         for blk in range(ch * nblk // nch, (ch + 1) * nblk // nch):
-            _fill_block(
-                values,
-                blk,
-                origins,
-                cell_start,
-                cells,
-                dims,
-                iso,
-                off,
-                keys,
-                f0,
-                f1,
-                centres,
-                tris,
-                vid,
-                touched,
-                scratch,
-                v,
-            )
+            _fill_block(values, blk, origins, cell_start, cells, dims, iso, off, keys, f0, f1,
+                        centres, tris, vid, touched, scratch, v)
 
 
 @nb.njit(cache=True)
