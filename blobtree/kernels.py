@@ -120,7 +120,7 @@ def _prim_s(op, p, o, qx, qy, qz):
     return (dx * dx + dy * dy + dz * dz) * k, 2.0 * k * dx, 2.0 * k * dy, 2.0 * k * dz
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _warp(op, p, o, x, y, z, ps, pp, mode):
     """Apply a warp's query map to (x, y, z) and compose its Jacobian into ps[pp, 3:12].
 
@@ -500,7 +500,7 @@ def _select(vs, b, k, op, mode):
         vs[b, 1] = vs[b, 2] = vs[b, 3] = 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _cblend(vs, b, p, o, mode):
     """Controlled blend (Eq. 6): max over pairs (j, k) of f_j + f_k and over single children."""
     npairs = int(p[o])
@@ -583,7 +583,7 @@ def _map_box(p, o, lox, loy, loz, hix, hiy, hiz):
             abs(p[o + 8]) * ex + abs(p[o + 9]) * ey + abs(p[o + 10]) * ez)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _prim_lipschitz(op, p, o, lip, lox, loy, loz, hix, hiy, hiz):
     """A bound on the primitive's |grad f| over the box (segment tracing's distance-aware bound,
     Galin et al. 2020): the box, mapped to the primitive's frame, lies within rho of its
@@ -726,7 +726,7 @@ def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox,
     return vs[0, 0]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def lipschitz_box(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, vs):
     """A bound on |grad f| over the box [lo, hi] (world coordinates): the tree's Lipschitz rules
     (sum at blends, max at CSG) over only the primitives whose boxes meet it, each with its
@@ -737,7 +737,7 @@ def lipschitz_box(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, vs):
                       0.0, 0.0, 0.0, 0.0, 0.0, vs)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def lipschitz_segment(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, length, vs):
     """A bound on |df/dt| along the segment o + t d, 0 <= t <= length (d a unit vector): the
     bound of ``lipschitz_box`` over the segment's box, tightened for point primitives by their

@@ -61,20 +61,27 @@ def _zero(oc, ob, ol, n):
 
 
 @njit(cache=True)
-def specialize(code, boxes, lips, lo, hi, oc, ob, ol):
+def specialize_work(code):
+    """Scratch for :func:`specialize` on ``code`` (its stack of open subtrees)."""
+    return np.empty((7, code.shape[0] + 1), dtype=np.int64)
+
+
+@njit(cache=True)
+def specialize(code, boxes, lips, lo, hi, oc, ob, ol, work):
     """Write the program specialised to the box [lo, hi] into oc, ob, ol; return its length.
 
     One pass over the program with a stack of open subtrees (a BOX head, its children, then the
-    closing operator or COLOR at the head's skip target - 1)."""
+    closing operator or COLOR at the head's skip target - 1), kept in ``work``
+    (:func:`specialize_work`): nothing is allocated, so kernels compiled without reference
+    counting may call it."""
+    f_end = work[0]     # source index after the subtree
+    f_start = work[1]   # output index where it began
+    f_head = work[2]    # output index of its kept BOX head, or -1
+    f_kept = work[3]    # children that produce instructions
+    f_first = work[4]   # (0 / 1 flags) no child finished yet
+    f_dead = work[5]
+    f_drop = work[6]    # may this subtree vanish if zero?
     ncode = code.shape[0]
-    cap = ncode + 1
-    f_end = np.empty(cap, dtype=np.int64)     # source index after the subtree
-    f_start = np.empty(cap, dtype=np.int64)   # output index where it began
-    f_head = np.empty(cap, dtype=np.int64)    # output index of its kept BOX head, or -1
-    f_kept = np.empty(cap, dtype=np.int64)    # children that produce instructions
-    f_first = np.empty(cap, dtype=np.bool_)
-    f_dead = np.empty(cap, dtype=np.bool_)
-    f_drop = np.empty(cap, dtype=np.bool_)    # may this subtree vanish if zero?
     top = -1
     n = 0
     i = 0
@@ -84,9 +91,9 @@ def specialize(code, boxes, lips, lo, hi, oc, ob, ol):
         if top >= 0 and i == f_end[top] - 1:
             closing = i
             cop = code[closing, 0]
-            if f_dead[top] or f_kept[top] == 0:
+            if f_dead[top] == 1 or f_kept[top] == 0:
                 n = f_start[top]
-                if not f_drop[top]:
+                if f_drop[top] == 0:
                     n = _zero(oc, ob, ol, n)
                 z = True
             else:
@@ -138,19 +145,19 @@ def specialize(code, boxes, lips, lo, hi, oc, ob, ol):
                     f_head[top] = n
                     n = _copy(code, boxes, lips, i, oc, ob, ol, n)
                 f_kept[top] = 0
-                f_first[top] = True
-                f_dead[top] = False
+                f_first[top] = 1
+                f_dead[top] = 0
                 f_drop[top] = drop
                 i += 1
         if have and top >= 0:
             cop = code[f_end[top] - 1, 0]
             # a zero child kills an intersection, a colour node, or a difference's first child
             if z and (cop == K.OP_INTER or K.is_paint(cop)
-                      or (cop == K.OP_DIFF and f_first[top])):
-                f_dead[top] = True
+                      or (cop == K.OP_DIFF and f_first[top] == 1)):
+                f_dead[top] = 1
             if not z or _keeps_zeros(cop):
                 f_kept[top] += 1
-            f_first[top] = False
+            f_first[top] = 0
     return n
 
 
@@ -177,9 +184,10 @@ def _grid_pass(code, boxes, lips, lo, size, dims, pad, lengths, gc, gb, gl, fill
         ol = np.empty(n)
         clo = np.empty(3)
         chi = np.empty(3)
+        work = specialize_work(code)
         for c in range(ch, ncell, nchunk):
             _cell_box(c, lo, size, dims, pad, clo, chi)
-            m = specialize(code, boxes, lips, clo, chi, oc, ob, ol)
+            m = specialize(code, boxes, lips, clo, chi, oc, ob, ol, work)
             if not fill:
                 lengths[c + 1] = m
             else:

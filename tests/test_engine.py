@@ -186,7 +186,8 @@ def test_specialised_program_is_short_for_a_small_cell():
     oc, ob, ol = np.empty((n, 4), dtype=np.int64), np.empty((n, 6)), np.empty(n)
     lo, hi = prog.bounds
     c = 0.5 * (lo + hi) + np.array([0.9, 0.0, 0.0])
-    m = S.specialize(prog.code, prog.boxes, prog.lips, c - 0.05, c + 0.05, oc, ob, ol)
+    m = S.specialize(prog.code, prog.boxes, prog.lips, c - 0.05, c + 0.05, oc, ob, ol,
+                     S.specialize_work(prog.code))
     assert 0 < m < n // 10
 
 

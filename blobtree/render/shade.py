@@ -89,7 +89,7 @@ def linear_to_srgb_byte(c):
     return np.uint8(int(s * 255.0 + 0.5))
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def shade(code, params, boxes, lips, local_code, local_boxes, px, py, pz, vx, vy, vz, lights,
           lo, hi, shadows, ambient, specular, shininess, shadow_eps, out, vstack, pstack):
     """Linear RGB at surface point p seen along view direction v (unit, toward the surface),

@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit
 
 from .. import kernels
-from ..specialize import specialize
+from ..specialize import specialize, specialize_work
 from .camera import Camera, as_color
 from .shade import Light, linear_to_srgb_byte, pack_lights, shade, srgb_to_linear
 from .trace import clip_box, march_cone, trace
@@ -34,6 +34,8 @@ BLOCK, SUB = 16, 4
 LOCAL_SPAN = 32.0
 #: First candidate segment of a ray, as a fraction of its chord through the bounds box.
 DELTA0 = 0.02
+#: First candidate segment of a ray leaving a stopped cone, in radii of that cone.
+PIXEL_SPAN = 4.0
 
 
 @dataclass(frozen=True)
@@ -121,7 +123,7 @@ def _uniform(seed, x, y, s, k):
     return h / 4294967296.0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _ray(cam, width, height, x, y):
     """Unit direction of the camera ray through image point (x, y) (in pixels)."""
     sx = 2.0 * x / width - 1.0
@@ -133,7 +135,7 @@ def _ray(cam, width, height, x, y):
     return dx / n, dy / n, dz / n
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _block_start(code, params, boxes, lips, cam, width, height, bx0, by0, bx1, by1, t, t_far,
                  vstack, pstack):
     """A depth before which no ray through pixels [bx0, bx1) x [by0, by1) meets the surface
@@ -152,10 +154,10 @@ def _block_start(code, params, boxes, lips, cam, width, height, bx0, by0, bx1, b
     return t, ax, ay, az, tan_a
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _pixel(code, params, boxes, lips, local, cam, lights, lo, hi, width, height, samples,
            shadows, bg, bg_bytes, ambient, specular, shininess, eps_abs, eps_rel, shadow_eps,
-           seed, px, py, t_start, t_local, out, iy, ix, rgb, vstack, pstack):
+           seed, px, py, t_start, t_local, seg0, out, iy, ix, rgb, vstack, pstack):
     """Trace and shade pixel (px, py) with every ray starting at depth t_start; write its sRGB
     bytes into out[iy, ix].  Up to depth t_local the rays stay in the region the program
     ``local = (code, boxes, lips)`` is specialised to; beyond it they use the full program."""
@@ -181,7 +183,7 @@ def _pixel(code, params, boxes, lips, local, cam, lights, lo, hi, width, height,
         inside = True
         if t0 <= min(t1, t_local):
             t = trace(lcode, params, lboxes, llips, cam[0], cam[1], cam[2], dx, dy, dz, t0,
-                      min(t1, t_local), eps_abs, eps_rel, DELTA0 * (t1 - t0) + eps_abs,
+                      min(t1, t_local), eps_abs, eps_rel, min(DELTA0 * (t1 - t0), seg0) + eps_abs,
                       vstack, pstack)
         if t < 0.0 and t_local < t1:
             inside = False
@@ -210,8 +212,8 @@ def _pixel(code, params, boxes, lips, local, cam, lights, lo, hi, width, height,
         out[iy, ix, 2] = linear_to_srgb_byte(acc_b / samples)
 
 
-@njit(cache=True)
-def _localize(code, boxes, lips, cam, ax, ay, az, tan_a, t_a, t_b, oc, ob, ol, lo, hi):
+@njit(cache=True, _nrt=False)
+def _localize(code, boxes, lips, cam, ax, ay, az, tan_a, t_a, t_b, oc, ob, ol, lo, hi, work):
     """Specialise the program to the box around the cone (apex: the eye, unit axis a, half-angle
     atan(tan_a)) between axis depths t_a and t_b; return (code, boxes, lips) views."""
     r = t_b * tan_a
@@ -220,7 +222,7 @@ def _localize(code, boxes, lips, cam, ax, ay, az, tan_a, t_a, t_b, oc, ob, ol, l
         b = cam[k] + t_b * (ax, ay, az)[k]
         lo[k] = min(a, b) - r
         hi[k] = max(a, b) + r
-    n = specialize(code, boxes, lips, lo, hi, oc, ob, ol)
+    n = specialize(code, boxes, lips, lo, hi, oc, ob, ol, work)
     return oc[:n], ob[:n], ol[:n]
 
 
@@ -257,7 +259,6 @@ def _render_rect(code, params, boxes, lips, depth, cam, lights, lo, hi, width, h
     gy0 = y0 // BLOCK
     nbx = (x1 - 1) // BLOCK - gx0 + 1
     nby = (y1 - 1) // BLOCK - gy0 + 1
-    nb = nbx * nby
     ncode = code.shape[0]
     vstack, pstack = kernels.scratch(depth)
     rgb = np.empty(3)
@@ -269,7 +270,24 @@ def _render_rect(code, params, boxes, lips, depth, cam, lights, lo, hi, width, h
     bol = np.empty(ncode)
     rlo = np.empty(3)
     rhi = np.empty(3)
-    for b in range(nb):
+    work = specialize_work(code)
+    _render_blocks(code, params, boxes, lips, cam, lights, lo, hi, width, height, samples,
+                   shadows, bg, bg_bytes, ambient, specular, shininess, eps_abs, eps_rel,
+                   shadow_eps, seed, x0, y0, x1, y1, gx0, gy0, nbx, nby, t_near, t_far, out, rgb,
+                   vstack, pstack, oc, ob, ol, boc, bob, bol, rlo, rhi, work)
+    return out
+
+
+@njit(cache=True, _nrt=False)
+def _render_blocks(code, params, boxes, lips, cam, lights, lo, hi, width, height, samples,
+                   shadows, bg, bg_bytes, ambient, specular, shininess, eps_abs, eps_rel,
+                   shadow_eps, seed, x0, y0, x1, y1, gx0, gy0, nbx, nby, t_near, t_far, out, rgb,
+                   vstack, pstack, oc, ob, ol, boc, bob, bol, rlo, rhi, work):
+    """The loops of :func:`_render_rect` over the nbx x nby blocks from block (gx0, gy0), on
+    buffers it allocated.  Compiled without reference counting (like every kernel on the way
+    from here to the field: numba's atomic counts on the shared program arrays cost a quarter
+    of the time with two threads), so nothing here allocates or keeps an array."""
+    for b in range(nbx * nby):
         bx0 = (gx0 + b % nbx) * BLOCK
         by0 = (gy0 + b // nbx) * BLOCK
         bx1 = min(bx0 + BLOCK, width)
@@ -283,7 +301,7 @@ def _render_rect(code, params, boxes, lips, depth, cam, lights, lo, hi, width, h
         if tb < np.inf:
             t_blk = min(tb + LOCAL_SPAN * tb * btan, t_far)
             blk = _localize(code, boxes, lips, cam, bax, bay, baz, btan,
-                            tb / np.sqrt(1.0 + btan * btan), t_blk, boc, bob, bol, rlo, rhi)
+                            tb / np.sqrt(1.0 + btan * btan), t_blk, boc, bob, bol, rlo, rhi, work)
         for sy0 in range(by0, by1, SUB):
             for sx0 in range(bx0, bx1, SUB):
                 sx1 = min(sx0 + SUB, bx1)
@@ -292,6 +310,7 @@ def _render_rect(code, params, boxes, lips, depth, cam, lights, lo, hi, width, h
                     continue
                 ts = tb
                 t_local = tb
+                seg0 = np.inf
                 local = (code, boxes, lips)
                 if tb < np.inf:
                     ts, ax, ay, az, tan_a = _block_start(blk[0], params, blk[1], blk[2], cam,
@@ -303,13 +322,13 @@ def _render_rect(code, params, boxes, lips, depth, cam, lights, lo, hi, width, h
                                                              t_blk, t_far, vstack, pstack)
                     if ts < np.inf:
                         t_local = ts + LOCAL_SPAN * ts * tan_a
+                        seg0 = PIXEL_SPAN * ts * tan_a
                         local = _localize(code, boxes, lips, cam, ax, ay, az, tan_a,
                                           ts / np.sqrt(1.0 + tan_a * tan_a), t_local, oc, ob,
-                                          ol, rlo, rhi)
+                                          ol, rlo, rhi, work)
                 for py in range(max(sy0, y0), min(sy1, y1)):
                     for px in range(max(sx0, x0), min(sx1, x1)):
                         _pixel(code, params, boxes, lips, local, cam, lights, lo, hi, width,
                                height, samples, shadows, bg, bg_bytes, ambient, specular,
                                shininess, eps_abs, eps_rel, shadow_eps, seed, px, py, ts,
-                               t_local, out, py - y0, px - x0, rgb, vstack, pstack)
-    return out
+                               t_local, seg0, out, py - y0, px - x0, rgb, vstack, pstack)

@@ -40,7 +40,7 @@ REFINE_ITERS = 24
 REFINE_TOL = 1e-3
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def clip_box(ox, oy, oz, dx, dy, dz, lo, hi, tmin, tmax):
     """Slab test: the parameter range (t0, t1) of the ray inside box [lo, hi] within
     [tmin, tmax]; t0 > t1 when the ray misses."""
@@ -62,7 +62,7 @@ def clip_box(ox, oy, oz, dx, dy, dz, lo, hi, tmin, tmax):
     return t0, t1
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, ta, fa, tb, fb, tol, vstack, pstack):
     """Root of f - ISO in [ta, tb] with fa < 0 <= fb (Illinois regula falsi), stopping once
     the secant slope puts the root within tol of the estimate."""
@@ -91,7 +91,7 @@ def _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, ta, fa, tb, fb, tol, vs
     return 0.5 * (ta + tb)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, eps_rel,
           delta0, vstack, pstack):
     """First t in [t0, t1] where the field reaches ISO along the unit-direction ray, or -1.
@@ -135,7 +135,7 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
     return -1.0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def march_cone(code, params, boxes, lips, ex, ey, ez, ax, ay, az, tan_a, t, t1, vstack, pstack):
     """Segment tracing for a whole cone of rays (apex at the eye, unit axis a, half-angle
     atan(tan_a)): the largest axis depth reached with the cone proven free of surface, or inf if
