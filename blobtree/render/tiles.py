@@ -158,13 +158,10 @@ def _block_start(code, params, boxes, lips, cam, width, height, bx0, by0, bx1, b
 def _pixel(code, params, boxes, lips, local, cam, lights, lo, hi, width, height, samples,
            shadows, bg, bg_bytes, ambient, specular, shininess, eps_abs, eps_rel, shadow_eps,
            seed, px, py, t_start, t_local, seg0, out, iy, ix, rgb, vstack, pstack):
-    """Trace and shade pixel (px, py) with every ray starting at depth t_start; write its sRGB
-    bytes into out[iy, ix].  Up to depth t_local the rays stay in the region the program
-    ``local = (code, boxes, lips)`` is specialised to; beyond it they use the full program."""
-    if t_start == np.inf:
-        for c in range(3):
-            out[iy, ix, c] = bg_bytes[c]
-        return
+    """Trace and shade pixel (px, py) with every ray starting at depth t_start (finite); write
+    its sRGB bytes into out[iy, ix].  Up to depth t_local the rays stay in the region the program
+    ``local = (code, boxes, lips)`` is specialised to; beyond it they use the full program.
+    ``seg0`` caps a ray's first candidate segment."""
     lcode, lboxes, llips = local
     m = int(np.ceil(np.sqrt(samples)))
     rows = (samples + m - 1) // m
@@ -328,6 +325,10 @@ def _render_blocks(code, params, boxes, lips, cam, lights, lo, hi, width, height
                                           ol, rlo, rhi, work)
                 for py in range(max(sy0, y0), min(sy1, y1)):
                     for px in range(max(sx0, x0), min(sx1, x1)):
+                        if ts == np.inf:  # the cone proved every ray misses
+                            for c in range(3):
+                                out[py - y0, px - x0, c] = bg_bytes[c]
+                            continue
                         _pixel(code, params, boxes, lips, local, cam, lights, lo, hi, width,
                                height, samples, shadows, bg, bg_bytes, ambient, specular,
                                shininess, eps_abs, eps_rel, shadow_eps, seed, px, py, ts,
