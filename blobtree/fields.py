@@ -8,6 +8,8 @@ the two cannot drift apart.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 #: Names accepted by the ``falloff=`` argument of primitives, with the id used by the kernels.
@@ -37,6 +39,20 @@ def falloff_ds(fid, s):
         t = 1.0 - s
         return -3.0 * t * t
     return -(12.0 / 9.0) * s * s + (34.0 / 9.0) * s - 22.0 / 9.0
+
+
+def falloff_peak(fid, c):
+    """The w = u^2 in [0, 1 - c] where u |f'(u^2 + c)| peaks: the steepest point, along a line
+    at squared distance c (in units of R^2) from a point primitive's centre, of its field.
+
+    The slope g(u) = u |f'(u^2 + c)| rises from 0 and falls to 0 at u^2 = 1 - c, with one peak
+    where |f'| + 2 u^2 |f'|' = 0: for the cubic 1 - s = 4 u^2; for the soft object the smaller
+    root of 30 w^2 + (36 c - 51) w + 6 c^2 - 17 c + 11 = 0.
+    """
+    if fid == 1:
+        return (1.0 - c) / 5.0
+    b = 51.0 - 36.0 * c
+    return (b - math.sqrt(max(b * b - 120.0 * (6.0 * c * c - 17.0 * c + 11.0), 0.0))) / 60.0
 
 
 def soft_object(s):

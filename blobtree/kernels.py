@@ -16,7 +16,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from .fields import SLOPE_BY_ID, falloff, falloff_ds
+from .fields import SLOPE_BY_ID, falloff, falloff_ds, falloff_peak
 
 # Opcodes (code[i, 0]).  Primitives first: every op <= OP_CYLINDER is a primitive.
 OP_POINT, OP_CONE, OP_TORUS, OP_DISC, OP_CYLINDER = 0, 1, 2, 3, 4
@@ -37,6 +37,7 @@ DEFAULT_GREY = 0.8
 
 _fo = njit(cache=True, inline="always")(falloff)
 _fo_ds = njit(cache=True, inline="always")(falloff_ds)
+_fo_peak = njit(cache=True, inline="always")(falloff_peak)
 
 
 @njit(cache=True)
@@ -626,11 +627,13 @@ def _prim_lipschitz(op, p, o, lip, lox, loy, loz, hix, hiy, hiz):
 
 @njit(cache=True, inline="always")
 def _point_along(p, o, ox, oy, oz, dx, dy, dz, length):
-    """A bound on |df/dt| of a point primitive along the segment o + t d, 0 <= t <= length
+    """The largest |df/dt| of a point primitive along the segment o + t d, 0 <= t <= length
     (segment tracing's directional bound, Galin et al. 2020).  In the primitive's frame the
-    segment is q(t) = w + t e about the centre, so s = u^2 + v^2 with u = |e| (t - t_c) / R,
-    v the perpendicular distance over R, and df/dt = f'(s) 2 |e| u / R; |f'(s)| falls as s
-    grows for both falloffs, so it is bounded by its value at the smallest s on the segment."""
+    segment is q(t) = w + t e about the centre, so s = u^2 + c with u = |e| (t - t_c) / R and c
+    the squared perpendicular distance over R^2, and |df/dt| = 2 |e| / R |u| |f'(s)|: a function
+    of |u| with one peak (``fields.falloff_peak``), so its maximum over the segment's range of
+    |u| is at the peak clamped to that range.  It never exceeds |grad f| anywhere on the segment,
+    so it is at most the box bound, and small where the segment passes the primitive sideways."""
     h = o + PRIM_HEADER
     ex = p[o] * dx + p[o + 1] * dy + p[o + 2] * dz
     ey = p[o + 4] * dx + p[o + 5] * dy + p[o + 6] * dz
@@ -643,22 +646,26 @@ def _point_along(p, o, ox, oy, oz, dx, dy, dz, length):
         return 0.0
     r = p[o + 12]
     we = wx * ex + wy * ey + wz * ez
-    v2 = max(wx * wx + wy * wy + wz * wz - we * we / e2, 0.0) / (r * r)
+    c = max(wx * wx + wy * wy + wz * wz - we * we / e2, 0.0) / (r * r)
+    if c >= 1.0:
+        return 0.0
     e = math.sqrt(e2)
     u0 = we / (e * r)  # u at t = 0 and at t = length
     u1 = u0 + e * length / r
-    umin2 = 0.0 if u0 <= 0.0 <= u1 else min(u0 * u0, u1 * u1)
-    smin = umin2 + v2
-    if smin >= 1.0:
+    a = 0.0 if u0 <= 0.0 <= u1 else min(abs(u0), abs(u1))  # the range [a, b] of |u|
+    b = min(max(abs(u0), abs(u1)), math.sqrt(1.0 - c))
+    if a >= b:
         return 0.0
-    return 2.0 * e / r * max(abs(u0), abs(u1)) * abs(_fo_ds(int(p[o + 13]), smin))
+    fid = int(p[o + 13])
+    u = min(max(math.sqrt(_fo_peak(fid, c)), a), b)
+    return 2.0 * e / r * u * abs(_fo_ds(fid, min(u * u + c, 1.0)))
 
 
 @njit(cache=True, inline="always")
 def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox, oy, oz, dx,
                dy, dz, length, vs):
-    """``lipschitz_box``, and with ``ray`` also the directional bound of point primitives
-    outside warps along the segment o + t d, 0 <= t <= length inside the box."""
+    """``lipschitz_box``; with ``ray``, point primitives outside warps take instead their exact
+    directional bound along the segment o + t d, 0 <= t <= length inside the box."""
     n = code.shape[0]
     sp = 0
     pp = 0
@@ -668,12 +675,11 @@ def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox,
         if op <= OP_CYLINDER:
             if _misses(boxes, i, lox, loy, loz, hix, hiy, hiz):
                 vs[sp, 0] = 0.0
+            elif ray and op == OP_POINT and pp == 0:
+                vs[sp, 0] = _point_along(params, code[i, 1], ox, oy, oz, dx, dy, dz, length)
             else:
                 vs[sp, 0] = _prim_lipschitz(op, params, code[i, 1], lips[i], lox, loy, loz,
                                             hix, hiy, hiz)
-                if ray and op == OP_POINT and pp == 0:
-                    vs[sp, 0] = min(vs[sp, 0], _point_along(params, code[i, 1], ox, oy, oz, dx,
-                                                            dy, dz, length))
             sp += 1
             i += 1
         elif op == OP_BOX or op == OP_PUSHPT or op == OP_BEND or op == OP_TWIST \
@@ -740,9 +746,9 @@ def lipschitz_box(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, vs):
 @njit(cache=True, _nrt=False)
 def lipschitz_segment(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, length, vs):
     """A bound on |df/dt| along the segment o + t d, 0 <= t <= length (d a unit vector): the
-    bound of ``lipschitz_box`` over the segment's box, tightened for point primitives by their
-    directional bound, which is small where the segment passes a primitive sideways (so grazing
-    rays take long steps)."""
+    bound of ``lipschitz_box`` over the segment's box, except that point primitives outside warps
+    take their directional bound (never larger, and small where the segment passes a primitive
+    sideways, so grazing rays take long steps)."""
     bx, by, bz = ox + length * dx, oy + length * dy, oz + length * dz
     return _lipschitz(code, params, boxes, lips, min(ox, bx), min(oy, by), min(oz, bz),
                       max(ox, bx), max(oy, by), max(oz, bz), True, ox, oy, oz, dx, dy, dz,
