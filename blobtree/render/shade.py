@@ -90,12 +90,14 @@ def linear_to_srgb_byte(c):
 
 
 @njit(cache=True, _nrt=False)
-def shade(code, params, boxes, lips, local_code, local_boxes, px, py, pz, vx, vy, vz, lights,
-          lo, hi, shadows, ambient, specular, shininess, shadow_eps, out, vstack, pstack):
+def shade(code, params, boxes, lips, local, llo, lhi, px, py, pz, vx, vy, vz, lights, lo, hi,
+          shadows, ambient, specular, shininess, shadow_eps, out, vstack, pstack):
     """Linear RGB at surface point p seen along view direction v (unit, toward the surface),
-    written into out[0:3].  Normal and albedo come from ``local_code, local_boxes`` (a program
-    specialised to a region around p, or the full one); shadow rays use the full program."""
-    kernels.eval_point(local_code, params, local_boxes, px, py, pz, 2, vstack, pstack)
+    written into out[0:3].  ``local = (code, boxes, lips)`` is the program specialised to the box
+    [llo, lhi] around p (or the full program and its bounds): it gives the normal and albedo,
+    and carries each shadow ray while it stays in that box; the full program takes it on."""
+    lcode, lboxes, llips = local
+    kernels.eval_point(lcode, params, lboxes, px, py, pz, 2, vstack, pstack)
     # The field decreases outward, so the outward normal is -grad f.
     nx, ny, nz = -vstack[0, 1], -vstack[0, 2], -vstack[0, 3]
     nn = np.sqrt(nx * nx + ny * ny + nz * nz)
@@ -128,11 +130,20 @@ def shade(code, params, boxes, lips, local_code, local_boxes, px, py, pz, vx, vy
             sy = py + shadow_eps * ny
             sz = pz + shadow_eps * nz
             t0, t1 = clip_box(sx, sy, sz, lx, ly, lz, lo, hi, 0.0, dist)
+            hit = -1.0
             if t0 <= t1:
-                if trace(code, params, boxes, lips, sx, sy, sz, lx, ly, lz, t0, t1,
-                         0.5 * shadow_eps, 0.0, 0.05 * (t1 - t0) + shadow_eps,
-                         vstack, pstack) >= 0.0:
-                    continue
+                ta, tb = clip_box(sx, sy, sz, lx, ly, lz, llo, lhi, t0, t1)
+                if ta == t0 and ta <= tb:  # it starts in the local program's box
+                    hit = trace(lcode, params, lboxes, llips, sx, sy, sz, lx, ly, lz, t0, tb,
+                                0.5 * shadow_eps, 0.0, 0.05 * (tb - t0) + shadow_eps, vstack,
+                                pstack)
+                    t0 = tb
+                if hit < 0.0 and t0 < t1:
+                    hit = trace(code, params, boxes, lips, sx, sy, sz, lx, ly, lz, t0, t1,
+                                0.5 * shadow_eps, 0.0, 0.05 * (t1 - t0) + shadow_eps, vstack,
+                                pstack)
+            if hit >= 0.0:
+                continue
         hx, hy, hz = lx - vx, ly - vy, lz - vz
         hn = np.sqrt(hx * hx + hy * hy + hz * hz)
         spec = 0.0

@@ -155,12 +155,12 @@ def _block_start(code, params, boxes, lips, cam, width, height, bx0, by0, bx1, b
 
 
 @njit(cache=True, _nrt=False)
-def _pixel(code, params, boxes, lips, local, cam, lights, lo, hi, width, height, samples,
-           shadows, bg, bg_bytes, ambient, specular, shininess, eps_abs, eps_rel, shadow_eps,
-           seed, px, py, t_start, t_local, seg0, out, iy, ix, rgb, vstack, pstack):
+def _pixel(code, params, boxes, lips, local, llo, lhi, cam, lights, lo, hi, width, height,
+           samples, shadows, bg, bg_bytes, ambient, specular, shininess, eps_abs, eps_rel,
+           shadow_eps, seed, px, py, t_start, t_local, seg0, out, iy, ix, rgb, vstack, pstack):
     """Trace and shade pixel (px, py) with every ray starting at depth t_start (finite); write
-    its sRGB bytes into out[iy, ix].  Up to depth t_local the rays stay in the region the program
-    ``local = (code, boxes, lips)`` is specialised to; beyond it they use the full program.
+    its sRGB bytes into out[iy, ix].  Up to depth t_local the rays stay in the box [llo, lhi] the
+    program ``local = (code, boxes, lips)`` is specialised to; beyond it they use the full one.
     ``seg0`` caps a ray's first candidate segment."""
     lcode, lboxes, llips = local
     m = int(np.ceil(np.sqrt(samples)))
@@ -193,10 +193,15 @@ def _pixel(code, params, boxes, lips, local, cam, lights, lo, hi, width, height,
             acc_b += bg[2]
             continue
         hits += 1
-        shade(code, params, boxes, lips, lcode if inside else code, lboxes if inside else boxes,
-              cam[0] + t * dx, cam[1] + t * dy, cam[2] + t * dz, dx, dy, dz, lights, lo, hi,
-              shadows, ambient, specular, shininess, max(shadow_eps, eps_rel * t), rgb, vstack,
-              pstack)
+        hx, hy, hz = cam[0] + t * dx, cam[1] + t * dy, cam[2] + t * dz
+        if inside:
+            shade(code, params, boxes, lips, local, llo, lhi, hx, hy, hz, dx, dy, dz, lights,
+                  lo, hi, shadows, ambient, specular, shininess, max(shadow_eps, eps_rel * t),
+                  rgb, vstack, pstack)
+        else:
+            shade(code, params, boxes, lips, (code, boxes, lips), lo, hi, hx, hy, hz, dx, dy,
+                  dz, lights, lo, hi, shadows, ambient, specular, shininess,
+                  max(shadow_eps, eps_rel * t), rgb, vstack, pstack)
         acc_r += rgb[0]
         acc_g += rgb[1]
         acc_b += rgb[2]
@@ -329,7 +334,7 @@ def _render_blocks(code, params, boxes, lips, cam, lights, lo, hi, width, height
                             for c in range(3):
                                 out[py - y0, px - x0, c] = bg_bytes[c]
                             continue
-                        _pixel(code, params, boxes, lips, local, cam, lights, lo, hi, width,
-                               height, samples, shadows, bg, bg_bytes, ambient, specular,
+                        _pixel(code, params, boxes, lips, local, rlo, rhi, cam, lights, lo, hi,
+                               width, height, samples, shadows, bg, bg_bytes, ambient, specular,
                                shininess, eps_abs, eps_rel, shadow_eps, seed, px, py, ts,
                                t_local, seg0, out, py - y0, px - x0, rgb, vstack, pstack)
