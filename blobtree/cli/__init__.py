@@ -35,7 +35,10 @@ def _start_numba_without_blas_probe() -> None:
         sys.meta_path.remove(finder)
 
 
-_start_numba_without_blas_probe()
-# The ~70,000 objects numpy and numba create on import live as long as the command: frozen, they
-# are no longer walked by every full collection (numba's target start-up triggers one, 40 ms).
-gc.freeze()
+def start_command() -> None:
+    """Process-wide set-up of a ``blobtree`` command, before it runs (not on import, so code
+    that imports the CLI keeps numba and the garbage collector as they were)."""
+    _start_numba_without_blas_probe()
+    # The ~70,000 objects numpy and numba create on import live as long as the command: frozen,
+    # they are no longer walked by every full collection (numba's target start triggers one).
+    gc.freeze()

@@ -9,6 +9,7 @@ import numpy as np
 
 from .. import __version__
 from ..nodes import Node
+from . import start_command
 from .figures_cmd import figures
 from .mesh_cmd import mesh
 from .render_cmd import render
@@ -53,5 +54,12 @@ main.add_command(figures)
 main.add_command(mesh)
 main.add_command(render)
 
-if __name__ == "__main__":
+
+def run() -> None:
+    """The ``blobtree`` executable: :func:`start_command`, then the command line."""
+    start_command()
     main()
+
+
+if __name__ == "__main__":
+    run()
