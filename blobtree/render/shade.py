@@ -10,7 +10,7 @@ from numba import njit
 
 from .. import kernels
 from .camera import Camera, as_color, as_vec3
-from .trace import clip_box, trace
+from .trace import clip_box, trace_from_local
 
 #: Row layout of the packed light array: kind (0 directional, 1 point), xyz, linear rgb.
 DIRECTIONAL, POINT = 0.0, 1.0
@@ -96,8 +96,7 @@ def shade(code, params, boxes, lips, local, llo, lhi, px, py, pz, vx, vy, vz, li
     written into out[0:3].  ``local = (code, boxes, lips)`` is the program specialised to the box
     [llo, lhi] around p (or the full program and its bounds): it gives the normal and albedo,
     and carries each shadow ray while it stays in that box; the full program takes it on."""
-    lcode, lboxes, llips = local
-    kernels.eval_point(lcode, params, lboxes, px, py, pz, 2, vstack, pstack)
+    kernels.eval_point(local[0], params, local[1], px, py, pz, 2, vstack, pstack)
     # The field decreases outward, so the outward normal is -grad f.
     nx, ny, nz = -vstack[0, 1], -vstack[0, 2], -vstack[0, 3]
     nn = np.sqrt(nx * nx + ny * ny + nz * nz)
@@ -130,20 +129,14 @@ def shade(code, params, boxes, lips, local, llo, lhi, px, py, pz, vx, vy, vz, li
             sy = py + shadow_eps * ny
             sz = pz + shadow_eps * nz
             t0, t1 = clip_box(sx, sy, sz, lx, ly, lz, lo, hi, 0.0, dist)
-            hit = -1.0
             if t0 <= t1:
                 ta, tb = clip_box(sx, sy, sz, lx, ly, lz, llo, lhi, t0, t1)
-                if ta == t0 and ta <= tb:  # it starts in the local program's box
-                    hit = trace(lcode, params, lboxes, llips, sx, sy, sz, lx, ly, lz, t0, tb,
-                                0.5 * shadow_eps, 0.0, 0.05 * (tb - t0) + shadow_eps, vstack,
-                                pstack)
-                    t0 = tb
-                if hit < 0.0 and t0 < t1:
-                    hit = trace(code, params, boxes, lips, sx, sy, sz, lx, ly, lz, t0, t1,
-                                0.5 * shadow_eps, 0.0, 0.05 * (t1 - t0) + shadow_eps, vstack,
-                                pstack)
-            if hit >= 0.0:
-                continue
+                t_split = tb if ta == t0 and ta <= tb else -np.inf  # starts in the local box?
+                if trace_from_local(code, params, boxes, lips, local, sx, sy, sz, lx, ly, lz,
+                                    t0, t_split, t1, 0.5 * shadow_eps, 0.0,
+                                    0.05 * (tb - t0) + shadow_eps, 0.05, shadow_eps, vstack,
+                                    pstack)[0] >= 0.0:
+                    continue
         hx, hy, hz = lx - vx, ly - vy, lz - vz
         hn = np.sqrt(hx * hx + hy * hy + hz * hz)
         spec = 0.0

@@ -18,7 +18,7 @@ from .. import kernels
 from ..specialize import specialize, specialize_work
 from .camera import Camera, as_color
 from .shade import Light, linear_to_srgb_byte, pack_lights, shade, srgb_to_linear
-from .trace import clip_box, march_cone, trace
+from .trace import clip_box, march_cone, trace_from_local
 
 #: Largest image side accepted (a 16384^2 image is 805 MB of RGB).
 MAX_SIDE = 16384
@@ -162,7 +162,6 @@ def _pixel(code, params, boxes, lips, local, llo, lhi, cam, lights, lo, hi, widt
     its sRGB bytes into out[iy, ix].  Up to depth t_local the rays stay in the box [llo, lhi] the
     program ``local = (code, boxes, lips)`` is specialised to; beyond it they use the full one.
     ``seg0`` caps a ray's first candidate segment."""
-    lcode, lboxes, llips = local
     m = int(np.ceil(np.sqrt(samples)))
     rows = (samples + m - 1) // m
     acc_r = acc_g = acc_b = 0.0
@@ -176,32 +175,23 @@ def _pixel(code, params, boxes, lips, local, llo, lhi, cam, lights, lo, hi, widt
             v = (s // m + _uniform(seed, px, py, s, 1)) / rows
         dx, dy, dz = _ray(cam, width, height, px + u, py + v)
         t0, t1 = clip_box(cam[0], cam[1], cam[2], dx, dy, dz, lo, hi, t_start, np.inf)
-        t = -1.0
-        inside = True
-        if t0 <= min(t1, t_local):
-            t = trace(lcode, params, lboxes, llips, cam[0], cam[1], cam[2], dx, dy, dz, t0,
-                      min(t1, t_local), eps_abs, eps_rel, min(DELTA0 * (t1 - t0), seg0) + eps_abs,
-                      vstack, pstack)
-        if t < 0.0 and t_local < t1:
-            inside = False
-            t0 = max(t0, t_local)
-            t = trace(code, params, boxes, lips, cam[0], cam[1], cam[2], dx, dy, dz, t0, t1,
-                      eps_abs, eps_rel, DELTA0 * (t1 - t0) + eps_abs, vstack, pstack)
+        t, inside = trace_from_local(code, params, boxes, lips, local, cam[0], cam[1], cam[2],
+                                     dx, dy, dz, t0, t_local, t1, eps_abs, eps_rel,
+                                     min(DELTA0 * (t1 - t0), seg0) + eps_abs, DELTA0, eps_abs,
+                                     vstack, pstack)
         if t < 0.0:
             acc_r += bg[0]
             acc_g += bg[1]
             acc_b += bg[2]
             continue
         hits += 1
-        hx, hy, hz = cam[0] + t * dx, cam[1] + t * dy, cam[2] + t * dz
-        if inside:
-            shade(code, params, boxes, lips, local, llo, lhi, hx, hy, hz, dx, dy, dz, lights,
-                  lo, hi, shadows, ambient, specular, shininess, max(shadow_eps, eps_rel * t),
-                  rgb, vstack, pstack)
-        else:
-            shade(code, params, boxes, lips, (code, boxes, lips), lo, hi, hx, hy, hz, dx, dy,
-                  dz, lights, lo, hi, shadows, ambient, specular, shininess,
-                  max(shadow_eps, eps_rel * t), rgb, vstack, pstack)
+        # the program and box around the hit: the local ones, or the full program and bounds
+        near, nlo, nhi = local, llo, lhi
+        if not inside:
+            near, nlo, nhi = (code, boxes, lips), lo, hi
+        shade(code, params, boxes, lips, near, nlo, nhi, cam[0] + t * dx, cam[1] + t * dy,
+              cam[2] + t * dz, dx, dy, dz, lights, lo, hi, shadows, ambient, specular, shininess,
+              max(shadow_eps, eps_rel * t), rgb, vstack, pstack)
         acc_r += rgb[0]
         acc_g += rgb[1]
         acc_b += rgb[2]

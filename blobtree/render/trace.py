@@ -136,6 +136,26 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
 
 
 @njit(cache=True, _nrt=False)
+def trace_from_local(code, params, boxes, lips, local, ox, oy, oz, dx, dy, dz, t0, t_split, t1,
+                     eps_abs, eps_rel, delta_local, frac, pad, vstack, pstack):
+    """:func:`trace` over [t0, t1] on ``local = (code, boxes, lips)``, the program specialised
+    to where the ray is up to t_split (first candidate segment ``delta_local``), then on the full
+    program beyond it (first candidate segment ``frac`` of what is left, plus ``pad``).
+    Returns (t or -1, whether the hit came from the local program)."""
+    lcode, lboxes, llips = local
+    if t0 <= min(t1, t_split):
+        t = trace(lcode, params, lboxes, llips, ox, oy, oz, dx, dy, dz, t0, min(t1, t_split),
+                  eps_abs, eps_rel, delta_local, vstack, pstack)
+        if t >= 0.0:
+            return t, True
+    if t_split < t1:
+        t0 = max(t0, t_split)
+        return trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, eps_rel,
+                     frac * (t1 - t0) + pad, vstack, pstack), False
+    return -1.0, False
+
+
+@njit(cache=True, _nrt=False)
 def march_cone(code, params, boxes, lips, ex, ey, ez, ax, ay, az, tan_a, t, t1, vstack, pstack):
     """Segment tracing for a whole cone of rays (apex at the eye, unit axis a, half-angle
     atan(tan_a)): the largest axis depth reached with the cone proven free of surface, or inf if
