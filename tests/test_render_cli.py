@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 from click.testing import CliRunner
 from PIL import Image
@@ -47,3 +49,37 @@ def test_render_bad_arguments_are_clear_errors(tmp_path):
     assert not out.exists()
     r = CliRunner().invoke(render, ["no-such-model", "-o", str(out), "--quiet"])
     assert r.exit_code != 0 and "whorl126" in r.output
+
+
+def test_progress_and_timing_are_shown_unless_quiet(tmp_path):
+    out = tmp_path / "p.png"
+    r = CliRunner().invoke(render, ["whorl126", "-o", str(out), "--size", "64x48", "--tile",
+                                    "16"])
+    assert r.exit_code == 0, r.output
+    assert "tile" in r.output  # the progress bar counts tiles
+    assert f"{out}: 64x48," in r.output
+
+
+def test_ctrl_c_stops_the_render_and_writes_nothing(tmp_path, monkeypatch):
+    """Ctrl-C in the middle of a render (here: in the third tile) ends the command with code
+    130, says so, and leaves no image behind; with --checkpoint it names where the finished
+    tiles are kept."""
+    render_module = sys.modules["blobtree.render"]  # (bt.render is the function)
+    trace_rect = render_module.trace_rect
+    done = []
+
+    def interrupted(*args):
+        if len(done) >= 2:
+            raise KeyboardInterrupt
+        done.append(1)
+        return trace_rect(*args)
+
+    monkeypatch.setattr(render_module, "trace_rect", interrupted)
+    out = tmp_path / "c.png"
+    args = ["whorl126", "-o", str(out), "--size", "64x64", "--tile", "16", "--quiet"]
+    r = CliRunner().invoke(render, args)
+    assert r.exit_code == 130 and "interrupted; nothing written" in r.output
+    assert not out.exists()
+    done.clear()
+    r = CliRunner().invoke(render, [*args, "--checkpoint", str(tmp_path / "ck")])
+    assert r.exit_code == 130 and "--resume" in r.output and not out.exists()
