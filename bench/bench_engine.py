@@ -73,7 +73,7 @@ def main() -> None:
     tree = bt.models.whorl126()
     t0 = time.perf_counter()
     prog = tree.program()
-    from blobtree.compile import GRID_MIN_POINTS
+    from blobtree.engine import GRID_MIN_POINTS
 
     prog.field(np.zeros((1, 3)))
     prog.field(np.zeros((GRID_MIN_POINTS, 3)))  # builds the grid of specialised programs

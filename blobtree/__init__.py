@@ -1,55 +1,23 @@
 """blobtree: structured implicit surface modelling with the BlobTree (Galbraith, Prusinkiewicz
-and Wyvill, "Modeling Murex cabritii sea shell with a structured implicit surface modeler")."""
+and Wyvill, "Modeling Murex cabritii sea shell with a structured implicit surface modeler").
 
-from . import models
-from .compile import Program, compile_tree
+Layers, each importing only those before it (docs/architecture.md): the model (``nodes``,
+``fields``, ``texture``, ``io``, ``models``), the engine (``engine``), the mesher and the ray
+tracer (``mesh``, ``render``), then scale-out (``distributed``), this API and the command line.
+"""
+
+from . import engine, models
+from .api import polygonize, render
+from .engine import Program, compile_tree
 from .io import load, save
-from .nodes import (
-    ISO,
-    Blend,
-    Color,
-    Cone,
-    ControlledBlend,
-    Cylinder,
-    Difference,
-    Disc,
-    Intersection,
-    Node,
-    Point,
-    Primitive,
-    Segment,
-    SuperBlend,
-    Torus,
-    Union,
-    blend,
-    controlled_blend,
-    difference,
-    intersection,
-    super_blend,
-    union,
-)
-from .render import Camera, Light, RenderSettings, render, render_tile, save_image
+from .mesh import Mesh
+from .nodes import *  # noqa: F403  (every node type and operator function, see nodes.__all__)
+from .nodes import __all__ as _node_names
+from .render import Camera, Light, RenderSettings, render_tile, save_image
 
-__version__ = "0.1.0"
-
-#: Names imported on first use (the mesher is not needed to render or evaluate).
-_LAZY = {"Mesh": "mesh", "polygonize": "mesh"}
-
-
-def __getattr__(name: str):
-    """Import the lazily loaded names of :data:`_LAZY` on first access."""
-    if name in _LAZY:
-        import importlib
-
-        value = getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__version__ = "0.2.0"
 
 __all__ = [
-    "ISO", "Blend", "Color", "Cone", "ControlledBlend", "Cylinder", "Difference", "Disc",
-    "Intersection", "Node", "Point", "Primitive", "Program", "Segment", "SuperBlend", "Torus",
-    "Union", "blend", "compile_tree", "controlled_blend", "difference", "intersection", "load",
-    "Camera", "Light", "Mesh", "RenderSettings", "models", "polygonize", "render",
-    "render_tile", "save", "save_image", "super_blend", "union",
+    *_node_names, "Camera", "Light", "Mesh", "Program", "RenderSettings", "compile_tree",
+    "engine", "load", "models", "polygonize", "render", "render_tile", "save", "save_image",
 ]

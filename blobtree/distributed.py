@@ -1,4 +1,4 @@
-"""Scale-out on Dask ``distributed`` (the optional extra ``blobtree[dask]``), and checkpoints.
+"""Scale-out on Dask ``distributed`` (the optional extra ``blobtree[dask]``).
 
 A render is cut into tiles (:func:`blobtree.render.tiles`), each rendered by
 :func:`blobtree.render.render_tile` on some worker: tiles are byte-identical however the image is
@@ -8,35 +8,32 @@ the same evaluation path as locally, so it equals the local mesh.  The tree trav
 file text; each worker process compiles a scene once and keeps the program, keyed by the text's
 hash.  A worker lost mid-job only delays it: Dask reruns its tasks elsewhere.
 
-:class:`Checkpoint` keeps the finished tiles of a render in a directory so an interrupted job
-resumes without redoing them; it needs no cluster.
-
-``distributed`` is imported only when a cluster is used: the core never needs it.
+This module sits above the renderer and the mesher and plugs into them: :func:`render` gives
+``blobtree.render.render`` a source of remote tiles, :func:`polygonize` gives
+``blobtree.mesh.polygonize`` an evaluator whose batches run on the cluster.  ``distributed`` is
+imported only when a cluster is used: the core never needs it.
 """
 
 from __future__ import annotations
 
 import contextlib
 import hashlib
-import json
 import threading
 from collections import OrderedDict
 from collections.abc import Iterator, Sequence
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .compile import GRID_MIN_POINTS, Program
-from .files import atomic_path
+from . import mesh
+from . import render as raytrace
+from .engine import GRID_MIN_POINTS, Program
 from .io import dumps, loads
 from .nodes import Node
+from .render import Camera, Light, RenderSettings, render_tile
 
 if TYPE_CHECKING:
     from distributed import Client
-
-    from .mesh import Mesh
-    from .render import Camera, Light, RenderSettings
 
 Rect = tuple[int, int, int, int]
 
@@ -143,8 +140,6 @@ def describe(client: Client) -> str:
 def _render_tile(text: str, camera: Camera, lights: list[Light], settings: RenderSettings,
                  rect: Rect) -> np.ndarray:
     """Worker task: one tile of the image."""
-    from .render import render_tile
-
     return render_tile(worker_program(text), camera, lights, settings, *rect)
 
 
@@ -212,73 +207,18 @@ class RemoteProgram:
         return np.concatenate(self._map("lipschitz", lo, hi))
 
 
-def polygonize_on(scheduler: str | Client, tree: Node, **options: Any) -> Mesh:
-    """:func:`blobtree.polygonize` with its field evaluations on a Dask cluster."""
-    from .mesh import polygonize
-
+def polygonize(scheduler: str | Client, tree: Node, **options: Any) -> mesh.Mesh:
+    """:func:`blobtree.mesh.polygonize` with its field evaluations on a Dask cluster."""
+    scene_text(tree)  # checked before connecting
     with connect(scheduler) as client:
-        return polygonize(RemoteProgram(client, tree), **options)
+        return mesh.polygonize(RemoteProgram(client, tree), **options)
 
 
-# ----- checkpoints --------------------------------------------------------------------------
-def job_key(prog: Program, camera: Camera, lights: Sequence[Light],
-            settings: RenderSettings) -> str:
-    """A hash of everything that decides a render's pixels: program, camera, lights, settings."""
-    h = hashlib.sha256()
-    for a in (*prog.arrays, *prog.bounds):
-        h.update(np.ascontiguousarray(a).tobytes())
-    h.update(repr((prog.depth, camera, list(lights), settings)).encode())
-    return h.hexdigest()
+def render(scheduler: str | Client, tree: Node, *args: Any, **options: Any) -> np.ndarray:
+    """:func:`blobtree.render.render` with its tiles rendered on a Dask cluster."""
+    scene_text(tree)  # checked before connecting
 
+    def tiles(prog, camera, lights, settings, rects):
+        return remote_tiles(scheduler, tree, camera, lights, settings, rects)
 
-class Checkpoint:
-    """Finished tiles of one render in a directory: ``tile-X0-Y0-X1-Y1.npy`` per tile (written
-    atomically) and ``manifest.json`` naming the job, so tiles of another job are never used."""
-
-    MANIFEST = "manifest.json"
-
-    def __init__(self, directory: str | Path, job: str, resume: bool = False):
-        self.directory = Path(directory)
-        try:
-            self.directory.mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise ValueError(f"checkpoint directory {str(directory)!r}: {exc}") from None
-        self.job = job
-        self.manifest = self.directory / self.MANIFEST
-        self.started = self.manifest.exists()
-        if self.started:
-            held = json.loads(self.manifest.read_text()).get("job")
-            if not resume:
-                raise ValueError(
-                    f"checkpoint directory {str(directory)!r} already holds a render; resume it "
-                    "(resume=True, --resume) or use an empty directory")
-            if held != job:
-                raise ValueError(
-                    f"checkpoint directory {str(directory)!r} holds another job (scene, camera, "
-                    "lights or settings differ); use an empty directory")
-
-    def _path(self, rect: Rect) -> Path:
-        return self.directory / "tile-{}-{}-{}-{}.npy".format(*rect)
-
-    def restore(self, img: np.ndarray, rects: Sequence[Rect]) -> list[Rect]:
-        """Copy the finished tiles among ``rects`` into ``img``; return the others."""
-        todo = []
-        for rect in rects:
-            x0, y0, x1, y1 = rect
-            path = self._path(rect)
-            pixels = np.load(path) if path.exists() else None
-            if pixels is not None and pixels.shape == img[y0:y1, x0:x1].shape \
-                    and pixels.dtype == img.dtype:
-                img[y0:y1, x0:x1] = pixels
-            else:
-                todo.append(rect)
-        return todo
-
-    def save(self, rect: Rect, pixels: np.ndarray) -> None:
-        """Keep one finished tile (the manifest is written with the first one)."""
-        if not self.started:
-            with atomic_path(self.manifest) as tmp:
-                tmp.write_text(json.dumps({"job": self.job}))
-            self.started = True
-        with atomic_path(self._path(rect)) as tmp, open(tmp, "wb") as fh:
-            np.save(fh, pixels)
+    return raytrace.render(tree, *args, source=tiles, **options)

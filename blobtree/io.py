@@ -1,71 +1,66 @@
-"""Scene files: a versioned JSON format that round-trips every node type exactly.
+"""Scene files: a versioned JSON format, derived from the node specs, that round-trips every tree.
 
-A scene file is data: loading builds nodes from a fixed table of types and never executes code.
-Every error names the JSON path of the problem, e.g. ``$.root.children[3].params.radius``.
+A scene file is data: loading builds nodes from the registry of node types and never executes
+code.  Every error names the JSON path of the problem, e.g. ``$.nodes[3].params.radius``.
+
+Version 2 (written) lists each distinct node once, children before parents, and refers to
+children by their index in that list, so a subtree used in several places (the paper's
+P(B, theta) reuses B) is stored once, and no depth of nesting strains the reader::
+
+    {"format": "blobtree-scene", "version": 2, "images": {KEY: BASE64_PNG, ...},
+     "nodes": [{"type": "point", "params": {...}}, {"type": "scale", "params": {...},
+                "children": [0]}, ...],
+     "root": 1}
+
+Version 1 (still read) nests each node's children inside it under ``"root"``.
 """
 
 from __future__ import annotations
 
 import json
-import math
 import os
 from typing import Any
 
+import numpy as np
+
 from .files import atomic_path
-from .nodes import NODE_TYPES, Node, Operator, Primitive, Texture, Unary
-from .texture import HelicoSurface, image_from_text, image_to_text
+from .nodes import REGISTRY, Node
+from .texture import image_from_text, image_to_text
 
 FORMAT = "blobtree-scene"
-VERSION = 1
-
-# Parameter kinds per node type (the file format's schema).
-_NUM, _VEC, _STR, _AXIS, _PAIRS = "number", "3-vector", "string", "axis", "list of index pairs"
-_MAP = "mapping ('primitive' or {\"helico\": {...}})"
-_PRIM = {"radius": _NUM, "falloff": _STR}
-SCHEMA: dict[str, dict[str, str]] = {
-    "point": {"center": _VEC, **_PRIM},
-    "segment": {"a": _VEC, "b": _VEC, **_PRIM},
-    "cone": {"a": _VEC, "b": _VEC, "radius_a": _NUM, "radius_b": _NUM, "falloff": _STR},
-    "torus": {"major_radius": _NUM, "center": _VEC, **_PRIM},
-    "disc": {"disc_radius": _NUM, "center": _VEC, **_PRIM},
-    "cylinder": {"a": _VEC, "b": _VEC, "cylinder_radius": _NUM, **_PRIM},
-    "blend": {}, "union": {}, "intersection": {}, "difference": {},
-    "super_blend": {"n": _NUM},
-    "controlled_blend": {"pairs": _PAIRS},
-    "translate": {"offset": _VEC},
-    "scale": {"factors": _VEC},
-    "rotate": {"axis": _AXIS, "degrees": _NUM},
-    "bend": {"degrees": _NUM, "length": _NUM, "axis": _STR, "toward": _STR},
-    "twist": {"degrees_per_unit": _NUM, "axis": _STR},
-    "taper": {"rate": _NUM, "axis": _STR},
-    "color": {"rgb": _VEC},
-    "texture": {"image": _STR, "mapping": _MAP, "wrap": _STR},
-}
-assert set(SCHEMA) == set(NODE_TYPES)
+VERSION = 2
 
 
 class SceneError(ValueError):
     """A scene file that cannot be loaded; the message starts with the JSON path."""
 
 
+def schema() -> dict[str, dict[str, str]]:
+    """Every node type's parameters and their kinds, as the scene file spells them."""
+    return {name: {p.name: p.kind.schema for p in cls.PARAMS} for name, cls in REGISTRY.items()}
+
+
 def to_dict(tree: Node) -> dict[str, Any]:
-    """The scene document of a tree; texture images are stored once each under "images"."""
-    images: dict[str, str] = {}
-    for node in tree.walk():
-        if isinstance(node, Texture) and node.digest not in images:
-            images[node.digest] = image_to_text(node.image)
+    """The scene document of a tree (version 2)."""
+    images: dict[str, np.ndarray] = {}
+    entries: list[dict[str, Any]] = []
+    index: dict[int, int] = {}
+    by_key: dict[str, int] = {}
+    for node in tree.unique():
+        k = by_key.get(node.key)
+        if k is None:
+            entry: dict[str, Any] = {"type": node.TYPE, "params": node.params(images)}
+            if node.children:
+                entry["children"] = [index[id(c)] for c in node.children]
+            k = by_key[node.key] = len(entries)
+            entries.append(entry)
+        index[id(node)] = k
     doc: dict[str, Any] = {"format": FORMAT, "version": VERSION}
     if images:
-        doc["images"] = images
-    doc["root"] = _node_dict(tree)
+        doc["images"] = {key: image_to_text(img) for key, img in images.items()}
+    doc["nodes"] = entries
+    doc["root"] = index[id(tree)]
     return doc
-
-
-def _node_dict(node: Node) -> dict[str, Any]:
-    out: dict[str, Any] = {"type": node.TYPE, "params": node.params()}
-    if node.children:
-        out["children"] = [_node_dict(c) for c in node.children]
-    return out
 
 
 def dumps(tree: Node) -> str:
@@ -91,6 +86,8 @@ def loads(text: str) -> Node:
         doc = json.loads(text, parse_constant=_reject_constant)
     except json.JSONDecodeError as e:
         raise SceneError(f"$: not valid JSON: {e}") from None
+    except RecursionError:
+        raise SceneError("$: nested too deeply to read") from None
     return from_dict(doc)
 
 
@@ -115,8 +112,11 @@ def from_dict(doc: Any) -> Node:
     if version > VERSION:
         raise SceneError(
             f"$.version: file version {version} is newer than this blobtree reads ({VERSION}); "
-            "upgrade blobtree"
-        )
+            "upgrade blobtree")
+    known = {"format", "version", "images", "root"} | ({"nodes"} if version >= 2 else set())
+    extra = set(doc) - known
+    if extra:
+        raise SceneError(f"$: unknown key(s) {sorted(extra)}")
     if "root" not in doc:
         raise SceneError("$.root: missing")
     raw = doc.get("images", {})
@@ -128,7 +128,13 @@ def from_dict(doc: Any) -> Node:
             images[key] = image_from_text(text)
         except ValueError as e:
             raise SceneError(f"$.images.{key}: {e}") from None
-    return _build(doc["root"], "$.root", images)
+    if version == 1:
+        try:
+            return _build_nested(doc["root"], "$.root", images)
+        except RecursionError:
+            raise SceneError("$.root: nested too deeply to read (save it again as version 2)"
+                             ) from None
+    return _build_flat(doc, images)
 
 
 def _kind(v: Any) -> str:
@@ -136,69 +142,72 @@ def _kind(v: Any) -> str:
             type(None): "null"}.get(type(v), "a number")
 
 
-def _check_value(kind: str, v: Any, path: str) -> Any:
-    def is_num(x: Any) -> bool:
-        return isinstance(x, int | float) and not isinstance(x, bool) and math.isfinite(x)
+def _build_flat(doc: dict[str, Any], images: dict[str, Any]) -> Node:
+    entries = doc.get("nodes")
+    if not isinstance(entries, list) or not entries:
+        raise SceneError("$.nodes: expected a non-empty list of nodes")
+    built: list[Node] = []
+    for i, d in enumerate(entries):
+        path = f"$.nodes[{i}]"
+        refs = d.get("children", []) if isinstance(d, dict) else []
+        if not isinstance(refs, list):
+            raise SceneError(f"{path}.children: expected a list of node indices, "
+                             f"got {_kind(refs)}")
+        children = []
+        for j, r in enumerate(refs):
+            if not (isinstance(r, int) and not isinstance(r, bool) and 0 <= r < i):
+                raise SceneError(f"{path}.children[{j}]: expected the index of an earlier "
+                                 f"node (0 to {i - 1}), got {json.dumps(r)[:40]}")
+            children.append(built[r])
+        built.append(_make(d, path, children, images))
+    root = doc["root"]
+    if not (isinstance(root, int) and not isinstance(root, bool) and 0 <= root < len(built)):
+        raise SceneError(f"$.root: expected a node index in [0, {len(built)}), got "
+                         f"{json.dumps(root)[:40]}")
+    return built[root]
 
-    ok = {
-        _NUM: lambda: is_num(v),
-        _VEC: lambda: isinstance(v, list) and len(v) == 3 and all(is_num(x) for x in v),
-        _STR: lambda: isinstance(v, str),
-        _AXIS: lambda: isinstance(v, str) or (
-            isinstance(v, list) and len(v) == 3 and all(is_num(x) for x in v)),
-        _MAP: lambda: v == "primitive" or (isinstance(v, dict) and list(v) == ["helico"]
-                                           and isinstance(v["helico"], dict)),
-        _PAIRS: lambda: isinstance(v, list) and all(
-            isinstance(p, list) and len(p) == 2
-            and all(isinstance(x, int) and not isinstance(x, bool) for x in p) for p in v),
-    }[kind]()
-    if not ok:
-        raise SceneError(f"{path}: expected {kind}, got {json.dumps(v)[:60]}")
-    return v
+
+def _build_nested(d: Any, path: str, images: dict[str, Any]) -> Node:
+    raw = d.get("children", []) if isinstance(d, dict) else []
+    if not isinstance(raw, list):
+        raise SceneError(f"{path}.children: expected a list, got {_kind(raw)}")
+    children = [_build_nested(c, f"{path}.children[{i}]", images) for i, c in enumerate(raw)]
+    return _make(d, path, children, images)
 
 
-def _build(d: Any, path: str, images: dict[str, Any]) -> Node:
+def _make(d: Any, path: str, children: list[Node], images: dict[str, Any]) -> Node:
+    """One node from its JSON object and its built children."""
     if not isinstance(d, dict):
         raise SceneError(f"{path}: expected a node object, got {_kind(d)}")
     t = d.get("type")
-    if t not in NODE_TYPES:
-        raise SceneError(f"{path}.type: unknown node type {t!r}; known: {sorted(NODE_TYPES)}")
+    cls = REGISTRY.get(t) if isinstance(t, str) else None
+    if cls is None:
+        raise SceneError(f"{path}.type: unknown node type {t!r}; known: {sorted(REGISTRY)}")
     extra = set(d) - {"type", "params", "children"}
     if extra:
         raise SceneError(f"{path}: unknown key(s) {sorted(extra)}")
     params = d.get("params", {})
     if not isinstance(params, dict):
         raise SceneError(f"{path}.params: expected an object, got {_kind(params)}")
-    schema = SCHEMA[t]
+    spec = {p.name: p for p in cls.PARAMS}
     for key in params:
-        if key not in schema:
+        if key not in spec:
             raise SceneError(f"{path}.params.{key}: unknown parameter for {t!r}; "
-                             f"expected {sorted(schema)}")
-    for key, kind in schema.items():
-        if key not in params:
-            raise SceneError(f"{path}.params.{key}: missing ({kind})")
-        _check_value(kind, params[key], f"{path}.params.{key}")
-    cls = NODE_TYPES[t]
-    raw_children = d.get("children", [])
-    if not isinstance(raw_children, list):
-        raise SceneError(f"{path}.children: expected a list, got {_kind(raw_children)}")
-    if issubclass(cls, Primitive) and raw_children:
-        raise SceneError(f"{path}.children: a {t!r} primitive has no children")
-    if issubclass(cls, Unary) and len(raw_children) != 1:
-        raise SceneError(f"{path}.children: {t!r} takes exactly one child, "
-                         f"got {len(raw_children)}")
-    children = [_build(c, f"{path}.children[{i}]", images) for i, c in enumerate(raw_children)]
+                             f"expected {sorted(spec)}")
+    values = {}
+    for name, p in spec.items():
+        if name not in params:
+            raise SceneError(f"{path}.params.{name}: missing ({p.kind.schema})")
+        try:
+            values[name] = p.kind.check(name, p.kind.from_json(name, params[name], images))
+        except (ValueError, TypeError) as e:
+            raise SceneError(f"{path}.params.{name}: {e}") from None
+    lo, hi = cls.ARITY
+    if len(children) < lo or (hi is not None and len(children) > hi):
+        want = f"at least {lo}" if hi is None else (f"exactly {lo}" if lo == hi else
+                                                      f"{lo} to {hi}")
+        raise SceneError(f"{path}.children: {t!r} takes {want} children, got {len(children)}")
     try:
-        if t == "texture":  # embedded data only: a scene file never names files to read
-            if params["image"] not in images:
-                raise SceneError(f"{path}.params.image: {params['image']!r} is not in $.images")
-            params = dict(params, image=images[params["image"]])
-            if params["mapping"] != "primitive":
-                params["mapping"] = HelicoSurface.from_dict(params["mapping"]["helico"])
-        if issubclass(cls, Operator):
-            return cls(*children, **params)
-        if issubclass(cls, Unary):
-            return cls(children[0], **params)
-        return cls(**params)
+        return cls(*children, **values)
     except (ValueError, TypeError) as e:
         raise SceneError(f"{path}: {e}") from None

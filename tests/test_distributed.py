@@ -17,6 +17,7 @@ import blobtree.distributed as bd
 from blobtree.cli.main import main
 from blobtree.render import RenderSettings, tiles
 from blobtree.render.camera import default_camera
+from blobtree.render.checkpoint import Checkpoint
 from blobtree.render.shade import default_lights
 
 distributed = pytest.importorskip("distributed")
@@ -126,14 +127,14 @@ def count_tiles(monkeypatch) -> list[tuple]:
 
 def interrupt_after(monkeypatch, k: int) -> None:
     """Make a checkpointed render crash once ``k`` tiles are saved."""
-    save = bd.Checkpoint.save
+    save = Checkpoint.save
 
     def crash(self, rect, pixels):
         if len(list(self.directory.glob("tile-*.npy"))) >= k:
             raise Interrupted
         save(self, rect, pixels)
 
-    monkeypatch.setattr(bd.Checkpoint, "save", crash)
+    monkeypatch.setattr(Checkpoint, "save", crash)
 
 
 def tile_files(directory) -> dict[str, int]:

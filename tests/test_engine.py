@@ -123,7 +123,7 @@ def test_engine_skips_far_subtrees():
 @given(trees(), st.integers(0, 2**31))
 def test_specialised_cells_equal_reference(tree, seed):
     """Large batches run per-cell specialised programs (specialize.py): still exact."""
-    from blobtree.compile import GRID_MIN_POINTS as BINNED_MIN
+    from blobtree.engine import GRID_MIN_POINTS as BINNED_MIN
 
     P = sample_points(tree, BINNED_MIN + 5000, seed)
     f, g, c = tree.program().evaluate(P)
@@ -139,7 +139,7 @@ def test_specialised_cells_equal_reference(tree, seed):
 @given(trees(), st.integers(0, 2**31))
 def test_cell_sorted_batches_equal_reference(tree, seed):
     """Large field-only batches are partitioned by cell and vectorised (batch.py): still exact."""
-    from blobtree.compile import GRID_MIN_POINTS
+    from blobtree.engine import GRID_MIN_POINTS
 
     P = sample_points(tree, GRID_MIN_POINTS + 5000, seed)
     np.testing.assert_allclose(tree.program().field(P), tree.reference(P)[0], rtol=1e-9,
@@ -149,7 +149,7 @@ def test_cell_sorted_batches_equal_reference(tree, seed):
 def test_cell_sorted_blocks_and_order(monkeypatch):
     """Many partition blocks (the last one partial), points outside the grid and any order of
     the points give the values of the one-point-at-a-time path."""
-    from blobtree import batch
+    from blobtree.engine import batch
 
     monkeypatch.setattr(batch, "BLOCK", 4096)
     tree = (bt.models.whorl126().bend(30.0, 2.0) | bt.Cone((0, 0, 0), (0, 3, 0), 0.5, 0.2)
@@ -167,7 +167,7 @@ def test_cell_sorted_blocks_and_order(monkeypatch):
 def test_specialised_difference_keeps_its_cap():
     """A difference is min(f_0, 1 - f_1): where the subtrahend is specialised away the result is
     still capped at 1 when the first child's blend exceeds 1 (found by hypothesis)."""
-    from blobtree.compile import GRID_MIN_POINTS
+    from blobtree.engine import GRID_MIN_POINTS
 
     body = bt.Point(radius=1.0) + bt.Point(radius=1.0)
     tree = body - bt.Point(center=(0.3, 0.0, 0.0), radius=0.2)
@@ -179,7 +179,7 @@ def test_specialised_difference_keeps_its_cap():
 
 
 def test_specialised_program_is_short_for_a_small_cell():
-    from blobtree import specialize as S
+    from blobtree.engine import specialize as S
 
     prog = bt.models.whorl126().program()
     n = len(prog)
@@ -213,7 +213,7 @@ def test_local_lipschitz_bounds_hold_on_random_trees(tree, seed, frac):
 @given(trees(), st.integers(0, 2**31), st.floats(0.02, 1.0))
 def test_segment_lipschitz_bounds_hold_on_random_trees(tree, seed, frac):
     """The bound along a segment (directional for point primitives) bounds |grad f . d| on it."""
-    from blobtree import kernels as K
+    from blobtree.engine import interp as K
 
     prog = tree.program()
     lo, hi = tree.bounds()
@@ -238,7 +238,7 @@ def test_segment_lipschitz_bounds_hold_on_random_trees(tree, seed, frac):
 def test_point_directional_bound_is_the_largest_slope(falloff, radius, seed):
     """For a lone (scaled, rotated) point primitive the segment bound is |df/dt|'s maximum along
     the segment itself: at least every sampled slope, and within 1% of the largest."""
-    from blobtree import kernels as K
+    from blobtree.engine import interp as K
 
     tree = bt.Point(radius=radius, falloff=falloff).scale(1.0, 0.7, 1.3).rotate((1, 2, 3), 40)
     prog = tree.program()

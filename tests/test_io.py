@@ -63,7 +63,7 @@ def _doc(root):
     (_doc({"type": "point", "params": {"center": [0, 0, 0], "radius": "1",
           "falloff": "soft_object"}}), "$.root.params.radius"),
     (_doc({"type": "point", "params": {"center": [0, 0, 0], "radius": -1,
-          "falloff": "soft_object"}}), "$.root: radius"),
+          "falloff": "soft_object"}}), "$.root.params.radius: radius must be"),
     ('{"format": "blobtree-scene", "version": 1, "root": {"type": "point", "params": '
      '{"center": [NaN, 0, 0], "radius": 1, "falloff": "soft_object"}}}', "NaN"),
     (_doc({"type": "translate", "params": {"offset": [0, 0, 0]}, "children": []}),

@@ -37,7 +37,7 @@ def mesh(scene: str, output: Path, resolution: int, scheduler: str | None,
         raise click.BadParameter(
             f"extension {output.suffix!r} is not one of {', '.join(FORMATS)}", param_hint="-o"
         )
-    from ..mesh import polygonize  # the mesher's kernels load only for this command
+    from ..api import polygonize
 
     tree = resolve_scene(scene)
     start = time.perf_counter()

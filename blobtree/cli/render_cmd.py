@@ -7,8 +7,8 @@ import time
 
 import click
 
+from ..api import render as render_image
 from ..render import Camera, save_image
-from ..render import render as render_image
 from ..render.camera import default_camera
 from .cluster import cluster, cluster_options
 from .scenes import resolve_scene, scene_camera

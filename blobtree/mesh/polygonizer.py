@@ -23,7 +23,7 @@ import os
 
 import numpy as np
 
-from ..nodes import ISO
+from ..nodes.base import ISO
 from ._kernels import block_triangles
 from ._lattice import (
     box_geometry,
@@ -57,7 +57,6 @@ def polygonize(
     bounds=None,
     progress: bool = False,
     max_memory: int | None = None,
-    scheduler=None,
 ) -> Mesh:
     """Triangulate the 0.5 iso-surface of ``tree`` into a closed, welded, oriented mesh.
 
@@ -67,14 +66,10 @@ def polygonize(
     ``progress`` shows a tqdm bar.  ``max_memory`` (bytes, default: available memory) is the
     budget: a job whose estimated output exceeds it is refused with ValueError before sampling.
     Features thinner than about two cells may be lost (see docs/meshing.md).
-    ``scheduler`` (a Dask address "tcp://HOST:PORT" or ``distributed.Client``) evaluates the
-    field on that cluster (see ``blobtree.distributed``); the mesh is the same.
+    ``tree`` may also be any evaluator with ``bounds``, ``field``, ``evaluate`` and
+    ``lipschitz`` as ``Program`` has them (``blobtree.distributed`` passes one whose batches run on
+    a Dask cluster; the mesh is the same).
     """
-    if scheduler is not None:
-        from ..distributed import polygonize_on
-
-        return polygonize_on(scheduler, tree, resolution=resolution, cell_size=cell_size,
-                             bounds=bounds, progress=progress, max_memory=max_memory)
     from tqdm import tqdm
 
     prog = tree.program() if hasattr(tree, "program") else tree

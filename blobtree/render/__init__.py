@@ -9,13 +9,15 @@ from __future__ import annotations
 
 import contextlib
 import os
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor, as_completed
+from typing import Any
 
 import numba
 import numpy as np
 
 from .camera import Camera, default_camera
+from .checkpoint import Checkpoint, job_key
 from .image import save_image
 from .shade import Light, default_lights, pack_lights
 from .tiles import RenderSettings, render_tile, trace_rect
@@ -23,6 +25,11 @@ from .trace import intersect_rays
 
 __all__ = ["Camera", "Light", "RenderSettings", "intersect", "render", "render_tile",
            "save_image", "tiles"]
+
+Rect = tuple[int, int, int, int]
+#: Renders rectangles somewhere: (prog, camera, lights, settings, rects) -> (rect, pixels)...
+TileSource = Callable[[Any, Camera, list[Light], RenderSettings, list[Rect]],
+                      Iterator[tuple[Rect, np.ndarray]]]
 
 #: Default tile side in pixels.
 TILE = 64
@@ -46,8 +53,8 @@ def render(tree, width: int, height: int, camera: Camera | None = None,
            lights: Sequence[Light] | None = None, samples: int = 1, shadows: bool = True,
            background: tuple[float, float, float] = (1.0, 1.0, 1.0), *,
            progress: bool = False, tile: int = TILE, threads: int | None = None,
-           scheduler=None, checkpoint: str | os.PathLike | None = None, resume: bool = False,
-           **shading) -> np.ndarray:
+           source: TileSource | None = None, checkpoint: str | os.PathLike | None = None,
+           resume: bool = False, **shading) -> np.ndarray:
     """Ray-trace ``tree`` into an (height, width, 3) uint8 sRGB image.
 
     ``camera`` defaults to a three-quarter view framing the whole surface; ``lights`` to one key
@@ -56,11 +63,11 @@ def render(tree, width: int, height: int, camera: Camera | None = None,
     count) render tiles side by side; ``shading`` may set ``ambient``, ``specular``,
     ``shininess`` and the jitter ``seed`` (see :class:`RenderSettings`).
 
-    ``scheduler`` (a Dask address "tcp://HOST:PORT" or ``distributed.Client``; ``tree`` must
-    then be a tree, not a program) renders the tiles on that cluster instead, with the same
-    bytes.  ``checkpoint`` (a directory) keeps each finished tile there; ``resume=True`` reuses
-    the tiles a previous, interrupted run of the same job left there (see
-    :class:`blobtree.distributed.Checkpoint`).
+    ``source(prog, camera, lights, settings, rects)``, if given, renders the rectangles elsewhere
+    and yields (rect, pixels) as they finish (``blobtree.distributed`` plugs in a Dask cluster
+    here; the bytes are the same).  ``checkpoint`` (a directory) keeps each finished tile there;
+    ``resume=True`` reuses the tiles a previous, interrupted run of the same job left there (see
+    :class:`blobtree.render.checkpoint.Checkpoint`).
     """
     settings = RenderSettings(width=width, height=height, samples=samples, shadows=bool(shadows),
                               background=background, **shading)
@@ -78,18 +85,14 @@ def render(tree, width: int, height: int, camera: Camera | None = None,
     rects = list(tiles(width, height, tile))
     store = None
     if checkpoint is not None:
-        from ..distributed import Checkpoint, job_key
-
         store = Checkpoint(checkpoint, job_key(prog, camera, lights, settings), resume=resume)
         rects = store.restore(img, rects)
     elif resume:
         raise ValueError("resume=True needs a checkpoint directory (checkpoint=None given)")
-    if scheduler is None:
+    if source is None:
         done = _local_tiles(prog, camera, lights, settings, rects, threads)
     else:
-        from ..distributed import remote_tiles
-
-        done = remote_tiles(scheduler, tree, camera, lights, settings, rects)
+        done = source(prog, camera, lights, settings, rects)
     bar = contextlib.nullcontext()
     if progress:
         from tqdm import tqdm

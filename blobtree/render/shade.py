@@ -6,9 +6,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
-from .. import kernels
+from ..engine import interp
+from ..jit import kernel
 from .camera import Camera, as_color, as_vec3
 from .trace import clip_box, trace_from_local
 
@@ -75,13 +75,13 @@ def srgb_to_linear_array(c: np.ndarray) -> np.ndarray:
     return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
 
 
-@njit(cache=True)
+@kernel
 def srgb_to_linear(c):
     """Scalar version of :func:`srgb_to_linear_array`."""
     return c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4
 
 
-@njit(cache=True)
+@kernel
 def linear_to_srgb_byte(c):
     """Linear [0, 1] (clamped) to an 8-bit sRGB value, rounded."""
     c = min(max(c, 0.0), 1.0)
@@ -89,14 +89,14 @@ def linear_to_srgb_byte(c):
     return np.uint8(int(s * 255.0 + 0.5))
 
 
-@njit(cache=True, _nrt=False)
+@kernel
 def shade(code, params, boxes, lips, local, llo, lhi, px, py, pz, vx, vy, vz, lights, lo, hi,
           shadows, ambient, specular, shininess, shadow_eps, out, vstack, pstack):
     """Linear RGB at surface point p seen along view direction v (unit, toward the surface),
     written into out[0:3].  ``local = (code, boxes, lips)`` is the program specialised to the box
     [llo, lhi] around p (or the full program and its bounds): it gives the normal and albedo,
     and carries each shadow ray while it stays in that box; the full program takes it on."""
-    kernels.eval_point(local[0], params, local[1], px, py, pz, 2, vstack, pstack)
+    interp.eval_point(local[0], params, local[1], px, py, pz, 2, vstack, pstack)
     # The field decreases outward, so the outward normal is -grad f.
     nx, ny, nz = -vstack[0, 1], -vstack[0, 2], -vstack[0, 3]
     nn = np.sqrt(nx * nx + ny * ny + nz * nz)

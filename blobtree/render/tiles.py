@@ -12,10 +12,10 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
-from .. import kernels
-from ..specialize import specialize, specialize_work
+from ..engine import interp
+from ..engine.specialize import specialize, specialize_work
+from ..jit import kernel
 from .camera import Camera, as_color
 from .shade import Light, linear_to_srgb_byte, pack_lights, shade, srgb_to_linear
 from .trace import clip_box, march_cone, trace_from_local
@@ -103,7 +103,7 @@ def trace_rect(prog, cam: np.ndarray, lights: np.ndarray, settings: RenderSettin
                         SHADOW_OFFSET * diag, s.seed, x0, y0, x1, y1)
 
 
-@njit(cache=True)
+@kernel
 def _hash(a):
     """A 32-bit integer mix (Wellons' lowbias32 shape) on int64 values in [0, 2^32)."""
     a ^= a >> 16
@@ -114,7 +114,7 @@ def _hash(a):
     return a
 
 
-@njit(cache=True)
+@kernel
 def _uniform(seed, x, y, s, k):
     """A reproducible uniform number in [0, 1) for sample s, coordinate k of pixel (x, y)."""
     h = _hash((seed ^ x) & 0xFFFFFFFF)
@@ -123,7 +123,7 @@ def _uniform(seed, x, y, s, k):
     return h / 4294967296.0
 
 
-@njit(cache=True, _nrt=False)
+@kernel
 def _ray(cam, width, height, x, y):
     """Unit direction of the camera ray through image point (x, y) (in pixels)."""
     sx = 2.0 * x / width - 1.0
@@ -135,7 +135,7 @@ def _ray(cam, width, height, x, y):
     return dx / n, dy / n, dz / n
 
 
-@njit(cache=True, _nrt=False)
+@kernel
 def _block_start(code, params, boxes, lips, cam, width, height, bx0, by0, bx1, by1, t, t_far,
                  vstack, pstack):
     """A depth before which no ray through pixels [bx0, bx1) x [by0, by1) meets the surface
@@ -154,7 +154,7 @@ def _block_start(code, params, boxes, lips, cam, width, height, bx0, by0, bx1, b
     return t, ax, ay, az, tan_a
 
 
-@njit(cache=True, _nrt=False)
+@kernel
 def _pixel(code, params, boxes, lips, local, llo, lhi, cam, lights, lo, hi, width, height,
            samples, shadows, bg, bg_bytes, ambient, specular, shininess, eps_abs, eps_rel,
            shadow_eps, seed, px, py, t_start, t_local, seg0, out, iy, ix, rgb, vstack, pstack):
@@ -204,7 +204,7 @@ def _pixel(code, params, boxes, lips, local, llo, lhi, cam, lights, lo, hi, widt
         out[iy, ix, 2] = linear_to_srgb_byte(acc_b / samples)
 
 
-@njit(cache=True, _nrt=False)
+@kernel
 def _localize(code, boxes, lips, cam, ax, ay, az, tan_a, t_a, t_b, oc, ob, ol, lo, hi, work):
     """Specialise the program to the box around the cone (apex: the eye, unit axis a, half-angle
     atan(tan_a)) between axis depths t_a and t_b; return (code, boxes, lips) views."""
@@ -218,7 +218,7 @@ def _localize(code, boxes, lips, cam, ax, ay, az, tan_a, t_a, t_b, oc, ob, ol, l
     return oc[:n], ob[:n], ol[:n]
 
 
-@njit(cache=True, nogil=True)
+@kernel(nrt=True, nogil=True)
 def _render_rect(code, params, boxes, lips, depth, cam, lights, lo, hi, width, height, samples,
                  shadows, background, ambient, specular, shininess, eps_abs, shadow_eps, seed,
                  x0, y0, x1, y1):
@@ -252,7 +252,7 @@ def _render_rect(code, params, boxes, lips, depth, cam, lights, lo, hi, width, h
     nbx = (x1 - 1) // BLOCK - gx0 + 1
     nby = (y1 - 1) // BLOCK - gy0 + 1
     ncode = code.shape[0]
-    vstack, pstack = kernels.scratch(depth)
+    vstack, pstack = interp.scratch(depth)
     rgb = np.empty(3)
     oc = np.empty((ncode, 4), dtype=np.int64)
     ob = np.empty((ncode, 6))
@@ -270,7 +270,7 @@ def _render_rect(code, params, boxes, lips, depth, cam, lights, lo, hi, width, h
     return out
 
 
-@njit(cache=True, _nrt=False)
+@kernel
 def _render_blocks(code, params, boxes, lips, cam, lights, lo, hi, width, height, samples,
                    shadows, bg, bg_bytes, ambient, specular, shininess, eps_abs, eps_rel,
                    shadow_eps, seed, x0, y0, x1, y1, gx0, gy0, nbx, nby, t_near, t_far, out, rgb,

@@ -1,7 +1,7 @@
 """Ray-surface intersection by segment tracing (Galin, Guerin, Paris, Peytavie, CGF 2020).
 
 Along a ray p(t) = o + t d the tracer keeps a candidate segment [t, t + delta].  The engine bounds
-the field's derivative along the segment (``kernels.lipschitz_segment``: the gradient bound over
+the field's derivative along the segment (``interp.lipschitz_segment``: the gradient bound over
 the segment's box, and for point primitives the directional bound, small where the ray passes a
 primitive sideways).  With that local Lipschitz bound L, the field cannot reach the iso-value 0.5
 before t + (0.5 - f(t)) / L, so that step is safe, and so is every further step of that kind
@@ -15,15 +15,16 @@ same bound to a whole cone of camera rays at once, so a block of pixels skips em
 together.
 
 All kernels take the program arrays ``code, params, boxes, lips`` of ``Program.arrays`` and the
-per-thread scratch of ``kernels.scratch``.
+per-thread scratch of ``interp.scratch``.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
-from .. import kernels
+from ..engine import interp
+from ..jit import kernel
 
 ISO = 0.5
 #: Growth factor of a cone's candidate segment over its last step (the paper's c).
@@ -40,7 +41,7 @@ REFINE_ITERS = 24
 REFINE_TOL = 1e-3
 
 
-@njit(cache=True, _nrt=False)
+@kernel
 def clip_box(ox, oy, oz, dx, dy, dz, lo, hi, tmin, tmax):
     """Slab test: the parameter range (t0, t1) of the ray inside box [lo, hi] within
     [tmin, tmax]; t0 > t1 when the ray misses."""
@@ -62,7 +63,7 @@ def clip_box(ox, oy, oz, dx, dy, dz, lo, hi, tmin, tmax):
     return t0, t1
 
 
-@njit(cache=True, _nrt=False)
+@kernel
 def _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, ta, fa, tb, fb, tol, vstack, pstack):
     """Root of f - ISO in [ta, tb] with fa < 0 <= fb (Illinois regula falsi), stopping once
     the secant slope puts the root within tol of the estimate."""
@@ -71,7 +72,7 @@ def _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, ta, fa, tb, fb, tol, vs
     for _ in range(REFINE_ITERS):
         if not (ta < t < tb):
             t = 0.5 * (ta + tb)
-        f = kernels.eval_point(code, params, boxes, ox + t * dx, oy + t * dy, oz + t * dz, 0,
+        f = interp.eval_point(code, params, boxes, ox + t * dx, oy + t * dy, oz + t * dz, 0,
                                vstack, pstack) - ISO
         if abs(f) * (tb - ta) <= tol * (fb - fa):
             return t
@@ -91,7 +92,7 @@ def _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, ta, fa, tb, fb, tol, vs
     return 0.5 * (ta + tb)
 
 
-@njit(cache=True, _nrt=False)
+@kernel
 def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, eps_rel,
           delta0, vstack, pstack):
     """First t in [t0, t1] where the field reaches ISO along the unit-direction ray, or -1.
@@ -102,7 +103,7 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
     there): then a shorter segment takes a new bound.
     """
     t = t0
-    f = kernels.eval_point(code, params, boxes, ox + t * dx, oy + t * dy, oz + t * dz, 0,
+    f = interp.eval_point(code, params, boxes, ox + t * dx, oy + t * dy, oz + t * dz, 0,
                            vstack, pstack) - ISO
     if f >= 0.0:
         return t
@@ -110,7 +111,7 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
     while t < t1:
         ts = t
         te = min(t + delta, t1)
-        lam = kernels.lipschitz_segment(code, params, boxes, lips, ox + t * dx, oy + t * dy,
+        lam = interp.lipschitz_segment(code, params, boxes, lips, ox + t * dx, oy + t * dy,
                                         oz + t * dz, dx, dy, dz, te - t, vstack)
         while True:  # lam bounds |df/dt| over the whole segment: step on inside it
             step = te - t
@@ -118,7 +119,7 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
                 step = min(step, -f / lam)
             eps = eps_abs + eps_rel * t
             tn = min(t + max(step, eps), t1)
-            fn = kernels.eval_point(code, params, boxes, ox + tn * dx, oy + tn * dy,
+            fn = interp.eval_point(code, params, boxes, ox + tn * dx, oy + tn * dy,
                                     oz + tn * dz, 0, vstack, pstack) - ISO
             if fn >= 0.0:
                 return _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, t, f, tn, fn,
@@ -135,7 +136,7 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
     return -1.0
 
 
-@njit(cache=True, _nrt=False)
+@kernel
 def trace_from_local(code, params, boxes, lips, local, ox, oy, oz, dx, dy, dz, t0, t_split, t1,
                      eps_abs, eps_rel, delta_local, frac, pad, vstack, pstack):
     """:func:`trace` over [t0, t1] on ``local = (code, boxes, lips)``, the program specialised
@@ -155,7 +156,7 @@ def trace_from_local(code, params, boxes, lips, local, ox, oy, oz, dx, dy, dz, t
     return -1.0, False
 
 
-@njit(cache=True, _nrt=False)
+@kernel
 def march_cone(code, params, boxes, lips, ex, ey, ez, ax, ay, az, tan_a, t, t1, vstack, pstack):
     """Segment tracing for a whole cone of rays (apex at the eye, unit axis a, half-angle
     atan(tan_a)): the largest axis depth reached with the cone proven free of surface, or inf if
@@ -175,13 +176,13 @@ def march_cone(code, params, boxes, lips, ex, ey, ez, ax, ay, az, tan_a, t, t1, 
         r = te * tan_a
         px, py, pz = ex + t * ax, ey + t * ay, ez + t * az
         qx, qy, qz = ex + te * ax, ey + te * ay, ez + te * az
-        lam = kernels.lipschitz_box(code, params, boxes, lips, min(px, qx) - r, min(py, qy) - r,
+        lam = interp.lipschitz_box(code, params, boxes, lips, min(px, qx) - r, min(py, qy) - r,
                                     min(pz, qz) - r, max(px, qx) + r, max(py, qy) + r,
                                     max(pz, qz) + r, vstack)
         step = te - t
         if lam > 0.0:
             if not have_f:
-                f = kernels.eval_point(code, params, boxes, px, py, pz, 0, vstack, pstack) - ISO
+                f = interp.eval_point(code, params, boxes, px, py, pz, 0, vstack, pstack) - ISO
                 have_f = True
             step = min(step, (-f / lam - t * tan_a) / (1.0 + tan_a))
             if step < CONE_STOP * t * tan_a:
@@ -192,14 +193,14 @@ def march_cone(code, params, boxes, lips, ex, ey, ez, ax, ay, az, tan_a, t, t1, 
     return np.inf
 
 
-@njit(cache=True, parallel=True)
+@kernel(nrt=True, parallel=True)
 def intersect_rays(code, params, boxes, lips, depth, origins, directions, lo, hi, tmax, eps_abs):
     """First hit distance of each ray (directions need not be unit; t is in units of |d|)."""
     n = origins.shape[0]
     out = np.full(n, np.nan)
     nchunks = min(n, 256)
     for c in prange(nchunks):
-        vstack, pstack = kernels.scratch(depth)
+        vstack, pstack = interp.scratch(depth)
         for i in range(c, n, nchunks):
             dx, dy, dz = directions[i, 0], directions[i, 1], directions[i, 2]
             norm = np.sqrt(dx * dx + dy * dy + dz * dz)

@@ -1,11 +1,12 @@
 """Compile a BlobTree into a flat postfix program for the numba kernels.
 
-Layout (one row per instruction):
+Layout (one row per instruction; docs/engine.md has the details):
 
-* ``code`` int64 (n, 4): opcode, offset into ``params``, skip target, child count (for a
-  primitive: the params offset of the texture that paints it, or -1);
+* ``code`` int64 (n, 4): opcode (``dispatch``), offset into ``params``, skip target, child count
+  (for a primitive: the params offset of the texture that paints it, or -1);
 * ``params`` float64: per-instruction parameters (primitives: the 3x4 frame->local map with all
-  enclosing affine transforms folded in, R, falloff id, then the skeleton);
+  enclosing affine transforms folded in, R, falloff id, then the type's own ``LAYOUT``; operators
+  their ``op_params``; warps a signed permutation and their ``LAYOUT``; paints their ``pack``);
 * ``boxes`` float64 (n, 6): the instruction's box in the current frame (world, or the space of the
   nearest enclosing warp); a point outside skips the subtree, which then contributes 0;
 * ``lips`` float64 (n,): Lipschitz constants in the current frame for primitives and warped
@@ -25,13 +26,26 @@ from functools import cached_property
 import numba
 import numpy as np
 
+from .. import geometry as geo
+from ..fields import FALLOFFS
+from ..nodes.base import Node, Operator, Paint, Primitive
+from ..nodes.warp import Warp
 from . import batch as B
-from . import geometry as geo
-from . import kernels as K
-from . import nodes as N
+from . import interp as K
 from . import specialize as S
-from . import texture as tex
-from .fields import FALLOFFS
+from .dispatch import (
+    K_OPERATOR,
+    K_POPPT,
+    K_PRIMITIVE,
+    K_PUSHPT,
+    K_ZERO,
+    KIND,
+    OP_BOX,
+    OP_POPPT,
+    OP_PUSHPT,
+    STACK,
+    opcode,
+)
 
 #: Batches at least this large run through the grid of specialised programs.
 GRID_MIN_POINTS = 20_000
@@ -43,9 +57,8 @@ GRID_MAX_INSTRUCTIONS = 4_000_000
 #: Children per leaf group of the bounding-volume hierarchy built over associative operators.
 GROUP = 4
 
-_ASSOCIATIVE = {N.Blend: K.OP_BLEND, N.SuperBlend: K.OP_SUPER, N.Union: K.OP_UNION}
-_OTHER_OPS = {N.Intersection: K.OP_INTER, N.Difference: K.OP_DIFF,
-              N.ControlledBlend: K.OP_CBLEND}
+#: Largest program a tree may expand to (a shared subtree is repeated at each of its places).
+MAX_INSTRUCTIONS = 20_000_000
 
 
 @dataclass
@@ -114,7 +127,7 @@ class Program:
         lo, hi = self.bounds
         if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)) and np.all(hi > lo)):
             return None
-        nprim = int(np.sum(self.code[:, 0] <= K.OP_CYLINDER))
+        nprim = int(np.sum(KIND[self.code[:, 0]] == K_PRIMITIVE))
         cells = int(np.clip(GRID_CELLS_PER_PRIMITIVE * nprim, GRID_MIN_CELLS, GRID_MAX_CELLS))
         while True:
             ext = hi - lo
@@ -153,12 +166,14 @@ class Program:
 
 
 class _Emitter:
+    """Emits a tree's instructions in postfix order (see the module docstring for the layout)."""
+
     def __init__(self) -> None:
         self.code: list[list[int]] = []
         self.params: list[float] = []
         self.boxes: list[np.ndarray] = []
         self.lips: list[float] = []
-        self.textures: dict[tuple[str, str], int] = {}
+        self.images: dict[str, int] = {}
 
     def data(self, values) -> int:
         """Append raw parameter data (no instruction); return its offset."""
@@ -180,60 +195,54 @@ class _Emitter:
         self.code[i][2] = len(self.code)
         self.boxes[i] = _box6(box)
 
+    def image_offset(self, node: Node) -> int:
+        """Where a texture's image block lies in params (each distinct image once)."""
+        key, data = node.image_block()
+        if key not in self.images:
+            self.images[key] = self.data(data)
+        return self.images[key]
+
     # ---------------------------------------------------------------------------------------
-    def emit(self, node: N.Node, M: np.ndarray, look: int = -1) -> geo.Box:
+    def emit(self, node: Node, M: np.ndarray, look: int = -1) -> geo.Box:
         """Emit ``node`` whose coordinates map to the current frame by M; return its frame box.
         ``look``: params offset of the field-interpolated texture painting primitives, or -1."""
-        if isinstance(node, N.Affine):
+        kind = node.KIND
+        if kind == "affine":
             return self.emit(node.child, geo.compose(M, node.matrix), look)
-        if isinstance(node, N.Primitive):
+        if kind == "primitive":
             return self.primitive(node, M, look)
-        if isinstance(node, N.Color | N.Texture):
+        if kind == "paint":
             return self.paint(node, M, look)
-        if isinstance(node, N.Warp):
+        if kind == "warp":
             return self.warp(node, M, look)
-        head = self.add(K.OP_BOX)
-        if type(node) in _ASSOCIATIVE:
-            box = self.group(_ASSOCIATIVE[type(node)], node, list(node.children), M, look)
+        return self.operator(node, M, look)
+
+    def operator(self, node: Operator, M: np.ndarray, look: int) -> geo.Box:
+        op = opcode(node)
+        children = _distinct(node)
+        head = self.add(OP_BOX)
+        if node.ASSOCIATIVE:
+            box = self.group(op, node, children, M, look)
         else:
-            box = node.combine_boxes([self.emit(c, M, look) for c in node.children])
-            self.add(_OTHER_OPS[type(node)], _op_params(node), count=len(node.children))
+            box = node.combine_boxes([self.emit(c, M, look) for c in children])
+            self.add(op, node.op_params(), count=len(children))
         self.close(head, box)
         return box
 
-    def paint(self, node: N.Color | N.Texture, M: np.ndarray, look: int) -> geo.Box:
+    def paint(self, node: Paint, M: np.ndarray, look: int) -> geo.Box:
         """Colour nodes and textures (see texture.py for the two methods)."""
-        if isinstance(node, N.Texture) and node.mapping == "primitive":
-            return self.emit(node.child, M, self.texture_block(node))
-        head = self.add(K.OP_BOX)
+        if node.sets_look:
+            return self.emit(node.child, M, self.image_offset(node))
+        head = self.add(OP_BOX)
         box = self.emit(node.child, M, look)
-        if isinstance(node, N.Color):
-            self.add(K.OP_COLOR, node.rgb)
-        else:
-            ms = node.mapping
-            sp = ms.spiral
-            inv = geo.invert(M)
-            self.add(K.OP_TEXBOUND, [
-                *inv.reshape(-1), *M[:, :3].T.reshape(-1),
-                sp.r0, sp.rho, 1.0 / np.tan(np.radians(sp.beta)), sp.d_over_r, ms.theta_max,
-                ms.u_period, ms.radius_factor, ms.gradient_weight, ms.step, ms.max_steps,
-                self.texture_block(node)])
+        self.add(opcode(node), node.pack(M, self.image_offset))
         self.close(head, box)
         return box
 
-    def texture_block(self, node: N.Texture) -> int:
-        """The texture image in params as [w, h, wrap, rgb rows in [0, 1]] (once per image)."""
-        key = (node.digest, node.wrap)
-        if key not in self.textures:
-            h, w = node.image.shape[:2]
-            self.textures[key] = self.data(
-                [w, h, tex.WRAPS[node.wrap], *(node.image.reshape(-1) / 255.0)])
-        return self.textures[key]
-
-    def group(self, op: int, node: N.Node, children: list[N.Node], M: np.ndarray,
+    def group(self, op: int, node: Operator, children: list[Node], M: np.ndarray,
               look: int) -> geo.Box:
         """Children of an associative operator, as a hierarchy of boxed groups."""
-        extra = _op_params(node)
+        extra = node.op_params()
         if len(children) <= GROUP:
             boxes = [self.emit(c, M, look) for c in children]
             self.add(op, extra, count=len(children))
@@ -245,66 +254,53 @@ class _Emitter:
         half = len(children) // 2
         boxes = []
         for part in (order[:half], order[half:]):
-            head = self.add(K.OP_BOX)
+            head = self.add(OP_BOX)
             box = self.group(op, node, [children[i] for i in sorted(part)], M, look)
             self.close(head, box)
             boxes.append(box)
         self.add(op, extra, count=2)
         return geo.box_union(boxes)
 
-    def primitive(self, node: N.Primitive, M: np.ndarray, look: int) -> geo.Box:
+    def primitive(self, node: Primitive, M: np.ndarray, look: int) -> geo.Box:
         inv = geo.invert(M)
         box = node._box(M)
-        head = list(inv.reshape(-1)) + [node.radius, FALLOFFS[node.falloff]]
-        if isinstance(node, N.Point):
-            op, geom = K.OP_POINT, node.center
-        elif isinstance(node, N.Cone):
-            op, geom = K.OP_CONE, [*node.a, *node.b, node.radius_a, node.radius_b,
-                                   *np.concatenate(tex.perpendicular_frame(node.b - node.a))]
-        elif isinstance(node, N.Torus | N.Disc):
-            op = K.OP_TORUS if isinstance(node, N.Torus) else K.OP_DISC
-            geom = [node.ring, *node.center]
-        elif isinstance(node, N.Cylinder):
-            op, geom = K.OP_CYLINDER, [*node.a, *node.b, node.cylinder_radius,
-                                       *np.concatenate(tex.perpendicular_frame(node.b - node.a))]
-        else:
-            raise TypeError(f"no kernel for primitive {type(node).__name__}")
+        header = [*inv.reshape(-1), node.field_radius, FALLOFFS[node.falloff]]
         lip = node.lipschitz() * geo.spectral_norm(inv[:, :3])
-        self.add(op, head + list(geom), box, count=look, lip=lip)
+        self.add(opcode(node), header + node.pack(), box, count=look, lip=lip)
         return box
 
-    def warp(self, node: N.Warp, M: np.ndarray, look: int) -> geo.Box:
+    def warp(self, node: Warp, M: np.ndarray, look: int) -> geo.Box:
         inv = geo.invert(M)
         box = node._box(M)
-        push = self.add(K.OP_PUSHPT, inv.reshape(-1), box,
+        push = self.add(OP_PUSHPT, inv.reshape(-1), box,
                         lip=node.lipschitz() * geo.spectral_norm(inv[:, :3]))
-        if isinstance(node, N.Bend):
-            op, canon = K.OP_BEND, [node.k, node.length]
-        elif isinstance(node, N.Twist):
-            op, canon = K.OP_TWIST, [node.k]
-        else:
-            op, canon = K.OP_TAPER, [node.rate, *node.t_range]
-        w = self.add(op, list(_canonical_perm(node).reshape(-1)) + canon, node.own_box,
+        w = self.add(opcode(node), [*node.canonical.reshape(-1), *node.pack()], node.own_box,
                      lip=node.stretch)
         self.emit(node.child, geo.IDENTITY, look)
         self.code[w][2] = len(self.code)  # a miss jumps to POPPT
         # POPPT's lip: the factor from the warp's child frame to the outer frame
-        self.add(K.OP_POPPT, lip=node.stretch * geo.spectral_norm(inv[:, :3]))
+        self.add(OP_POPPT, lip=node.stretch * geo.spectral_norm(inv[:, :3]))
         self.code[push][2] = len(self.code)
         return box
 
-    def program(self, root: N.Node) -> Program:
+    def program(self, root: Node) -> Program:
         code = np.array(self.code, dtype=np.int64).reshape(-1, 4)
-        depth = _stack_depth(code)
         return Program(
             code=code,
             params=np.array(self.params, dtype=np.float64),
             boxes=np.array(self.boxes, dtype=np.float64).reshape(-1, 6),
             lips=np.array(self.lips, dtype=np.float64),
-            depth=depth,
+            depth=_stack_depth(code),
             bounds=root.bounds(),
             lipschitz_global=root.lipschitz(),
         )
+
+
+def _distinct(node: Operator) -> list[Node]:
+    """The children the program evaluates: an idempotent operator's repeated children once."""
+    if node.IDEMPOTENT:
+        return list(dict.fromkeys(node.children))
+    return list(node.children)
 
 
 def _box6(box: geo.Box | None) -> np.ndarray:
@@ -313,45 +309,49 @@ def _box6(box: geo.Box | None) -> np.ndarray:
     return np.concatenate(box)
 
 
-def _op_params(node: N.Node) -> list[float]:
-    if isinstance(node, N.SuperBlend):
-        return [node.n]
-    if isinstance(node, N.ControlledBlend):
-        flat = [v for pair in node.pairs for v in pair]
-        return [len(node.pairs), *flat, len(node.singles), *node.singles]
-    return []
-
-
-def _canonical_perm(node: N.Warp) -> np.ndarray:
-    """Signed permutation from frame axes to the kernel's canonical warp axes."""
-    if isinstance(node, N.Bend):
-        return node._perm
-    a, i, j = node.index
-    m = np.zeros((3, 3))
-    m[0, i] = m[1, j] = m[2, a] = 1.0
-    return m
-
-
 def _stack_depth(code: np.ndarray) -> int:
     """Deepest value or point stack a run can reach (+1 spare row)."""
     sp = pp = deepest = 0
-    for op, _, _, count in code:
-        if op <= K.OP_CYLINDER:
+    kinds = KIND[code[:, 0]]
+    for (op, _, _, count), kind in zip(code, kinds, strict=True):
+        if kind == K_PRIMITIVE or kind == K_ZERO:
             sp += 1
-        elif op == K.OP_PUSHPT:
+        elif kind == K_PUSHPT:
             pp += 1
-        elif op == K.OP_POPPT:
+        elif kind == K_POPPT:
             pp -= 1
-        elif op in (K.OP_BLEND, K.OP_SUPER, K.OP_UNION, K.OP_INTER, K.OP_DIFF, K.OP_CBLEND):
+        elif kind == K_OPERATOR:
+            deepest = max(deepest, sp + STACK[op])
             sp -= count - 1
         deepest = max(deepest, sp, pp)
-    return deepest + 2
+    return int(deepest) + 2
 
 
-def compile_tree(tree: N.Node) -> Program:
-    """Flatten ``tree`` into a :class:`Program`."""
-    if not isinstance(tree, N.Node):
+def expanded_size(tree: Node) -> int:
+    """About how many instructions ``tree`` compiles to, counted over its distinct nodes (a
+    shared subtree counts at each of its places, as the program repeats it)."""
+    size: dict[int, int] = {}
+    for node in tree.unique():
+        kids = _distinct(node) if node.KIND == "operator" else node.children
+        inner = sum(size[id(c)] for c in kids)
+        own = {"affine": 0, "primitive": 1, "paint": 2, "warp": 3}.get(node.KIND, 2)
+        if node.KIND == "operator" and getattr(node, "ASSOCIATIVE", False):
+            own += 2 * max(len(kids) // GROUP, 1)
+        size[id(node)] = own + inner
+    return size[id(tree)]
+
+
+def compile_tree(tree: Node) -> Program:
+    """Flatten ``tree`` into a :class:`Program`; TypeError for a node type without kernels,
+    ValueError for a tree that expands past ``MAX_INSTRUCTIONS``."""
+    if not isinstance(tree, Node):
         raise ValueError(f"tree must be a BlobTree node, got {type(tree).__name__}")
+    n = expanded_size(tree)
+    if n > MAX_INSTRUCTIONS:
+        raise ValueError(
+            f"tree expands to about {n:,} instructions, more than {MAX_INSTRUCTIONS:,}: a "
+            "subtree shared in many places is repeated at each (e.g. blends of blends of one "
+            "node); build it with fewer repetitions")
     em = _Emitter()
     em.emit(tree, geo.IDENTITY)
     return em.program(tree)

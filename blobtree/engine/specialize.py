@@ -1,11 +1,14 @@
 """Program specialisation to a region: the tape shortening of Keeter's MPR, for BlobTrees.
 
 Given a box of space (a cell of points, an image tile's frustum, a mesher block), ``specialize``
-copies the program keeping only what can be non-zero there: a subtree whose box misses the region
-becomes nothing (inside a blend, super-elliptic blend or union, where a 0 changes nothing) or one
-ZERO instruction; an intersection with a zero child, or a difference whose first child is zero,
-becomes ZERO; box tests that contain the whole region are dropped.  Parameters are shared with the
-full program.  Points in the region evaluate exactly as with the full program.
+copies the program keeping only what can be non-zero there.  A subtree whose box misses the
+region becomes nothing or one ZERO instruction, or makes its parent zero, as the parent operator
+declares (``ZERO_FIRST`` / ``ZERO_REST``): a blend, super-elliptic blend or union drops it, an
+intersection dies, a difference dies of a zero first child and keeps zero subtrahends, a
+controlled blend keeps zeros in place, a paint node dies with its child.  An operator left with
+one child becomes that child; box tests that contain the whole region are dropped.  Parameters
+are shared with the full program.  Points in the region evaluate exactly as with the full
+program.
 
 ``build_grid`` specialises the program to every cell of a grid over the tree's bounds (done
 once per program); ``eval_point_grid`` finds a point's cell and runs that cell's short program:
@@ -15,30 +18,37 @@ for the 126-blob whorl a point then meets ~8 instructions instead of ~26.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
-from . import kernels as K
+from ..jit import kernel
+from .dispatch import (
+    K_OPERATOR,
+    K_PRIMITIVE,
+    K_PUSHPT,
+    K_ZERO,
+    KEEP,
+    KILL,
+    KIND,
+    OP_ZERO,
+    ZERO_FIRST,
+    ZERO_REST,
+)
+from .interp import CHUNK, eval_point, push_zero, scratch
 
 
-@njit(cache=True, inline="always")
+@kernel
 def _misses(boxes, i, lo, hi):
     return (hi[0] < boxes[i, 0] or hi[1] < boxes[i, 1] or hi[2] < boxes[i, 2]
             or lo[0] > boxes[i, 3] or lo[1] > boxes[i, 4] or lo[2] > boxes[i, 5])
 
 
-@njit(cache=True, inline="always")
+@kernel
 def _contains(boxes, i, lo, hi):
     return (boxes[i, 0] <= lo[0] and boxes[i, 1] <= lo[1] and boxes[i, 2] <= lo[2]
             and hi[0] <= boxes[i, 3] and hi[1] <= boxes[i, 4] and hi[2] <= boxes[i, 5])
 
 
-@njit(cache=True, inline="always")
-def _keeps_zeros(op):
-    """Operators whose zero children are not neutral, so specialisation keeps them as ZERO."""
-    return op == K.OP_CBLEND or op == K.OP_DIFF
-
-
-@njit(cache=True, inline="always")
+@kernel
 def _copy(code, boxes, lips, i, oc, ob, ol, n):
     for c in range(4):
         oc[n, c] = code[i, c]
@@ -48,9 +58,9 @@ def _copy(code, boxes, lips, i, oc, ob, ol, n):
     return n + 1
 
 
-@njit(cache=True, inline="always")
+@kernel
 def _zero(oc, ob, ol, n):
-    oc[n, 0] = K.OP_ZERO
+    oc[n, 0] = OP_ZERO
     oc[n, 1] = 0
     oc[n, 2] = n + 1
     oc[n, 3] = 0
@@ -60,13 +70,19 @@ def _zero(oc, ob, ol, n):
     return n + 1
 
 
-@njit(cache=True)
+@kernel
+def _rule(cop, first):
+    """What a zero child does to the operator (or paint node) closing at ``cop``."""
+    return ZERO_FIRST[cop] if first == 1 else ZERO_REST[cop]
+
+
+@kernel(nrt=True)
 def specialize_work(code):
     """Scratch for :func:`specialize` on ``code`` (its stack of open subtrees)."""
     return np.empty((7, code.shape[0] + 1), dtype=np.int64)
 
 
-@njit(cache=True)
+@kernel
 def specialize(code, boxes, lips, lo, hi, oc, ob, ol, work):
     """Write the program specialised to the box [lo, hi] into oc, ob, ol; return its length.
 
@@ -96,10 +112,10 @@ def specialize(code, boxes, lips, lo, hi, oc, ob, ol, work):
                 if f_drop[top] == 0:
                     n = _zero(oc, ob, ol, n)
                 z = True
-            else:
-                if K.is_paint(cop) or f_kept[top] > 1:
+            else:  # an operator left with one child is that child; a paint node stays
+                if KIND[cop] != K_OPERATOR or f_kept[top] > 1:
                     n = _copy(code, boxes, lips, closing, oc, ob, ol, n)
-                    if not K.is_paint(cop):
+                    if KIND[cop] == K_OPERATOR:
                         oc[n - 1, 3] = f_kept[top]
                 if f_head[top] >= 0:
                     oc[f_head[top], 2] = n
@@ -109,13 +125,11 @@ def specialize(code, boxes, lips, lo, hi, oc, ob, ol, work):
         elif i >= ncode:
             break
         else:
-            # zeros vanish from blends, super-elliptic blends and unions; controlled blends keep
-            # them in place (their pairs index children), and so do differences (a zero
-            # subtrahend still caps the result at 1: min(f_0, 1 - 0))
-            drop = top >= 0 and not _keeps_zeros(code[f_end[top] - 1, 0])
+            # does the open operator keep a zero child in place (else it drops it, or dies)?
+            drop = top >= 0 and _rule(code[f_end[top] - 1, 0], f_first[top]) != KEEP
             op = code[i, 0]
-            if op <= K.OP_CYLINDER:
-                if _misses(boxes, i, lo, hi):
+            if KIND[op] == K_PRIMITIVE or KIND[op] == K_ZERO:
+                if KIND[op] == K_ZERO or _misses(boxes, i, lo, hi):
                     z = True
                     if not drop:
                         n = _zero(oc, ob, ol, n)
@@ -129,7 +143,7 @@ def specialize(code, boxes, lips, lo, hi, oc, ob, ol, work):
                     n = _zero(oc, ob, ol, n)
                 i = code[i, 2]
                 have = True
-            elif op == K.OP_PUSHPT:  # inside a warp the frame differs: copy verbatim
+            elif KIND[op] == K_PUSHPT:  # inside a warp the frame differs: copy verbatim
                 shift = n - i
                 for j in range(i, code[i, 2]):
                     n = _copy(code, boxes, lips, j, oc, ob, ol, n)
@@ -150,18 +164,16 @@ def specialize(code, boxes, lips, lo, hi, oc, ob, ol, work):
                 f_drop[top] = drop
                 i += 1
         if have and top >= 0:
-            cop = code[f_end[top] - 1, 0]
-            # a zero child kills an intersection, a colour node, or a difference's first child
-            if z and (cop == K.OP_INTER or K.is_paint(cop)
-                      or (cop == K.OP_DIFF and f_first[top] == 1)):
+            rule = _rule(code[f_end[top] - 1, 0], f_first[top])
+            if z and rule == KILL:
                 f_dead[top] = 1
-            if not z or _keeps_zeros(cop):
+            if not z or rule == KEEP:
                 f_kept[top] += 1
             f_first[top] = 0
     return n
 
 
-@njit(cache=True, inline="always")
+@kernel
 def _cell_box(c, lo, size, dims, pad, clo, chi):
     r = c
     for ax in range(2, -1, -1):
@@ -171,7 +183,7 @@ def _cell_box(c, lo, size, dims, pad, clo, chi):
         chi[ax] = lo[ax] + (k + 1) * size[ax] + pad
 
 
-@njit(parallel=True, cache=True)
+@kernel(parallel=True, nrt=True)
 def _grid_pass(code, boxes, lips, lo, size, dims, pad, lengths, gc, gb, gl, fill):
     """Specialise to every cell: record the lengths (``fill`` False), or copy the programs to
     rows lengths[c]:lengths[c] + m (``fill`` True; lengths then holds the starts)."""
@@ -210,7 +222,7 @@ def build_grid(code, boxes, lips, lo, size, dims, pad):
     return start, gc, gb, gl
 
 
-@njit(cache=True, inline="always")
+@kernel
 def cell_of(x, y, z, lo, size, dims):
     """Index of the grid cell holding (x, y, z), or -1 outside the grid."""
     c = 0
@@ -223,25 +235,25 @@ def cell_of(x, y, z, lo, size, dims):
     return c
 
 
-@njit(cache=True, inline="always")
+@kernel
 def eval_point_grid(start, gc, gb, params, lo, size, dims, x, y, z, mode, vs, ps):
     """``kernels.eval_point`` through the grid of specialised programs (0 outside the grid)."""
     c = cell_of(x, y, z, lo, size, dims)
     if c < 0:
-        K._push_zero(vs, 0, mode)
+        push_zero(vs, 0, mode)
         return 0.0
     a, b = start[c], start[c + 1]
-    return K.eval_point(gc[a:b], params, gb[a:b], x, y, z, mode, vs, ps)
+    return eval_point(gc[a:b], params, gb[a:b], x, y, z, mode, vs, ps)
 
 
-@njit(parallel=True, cache=True)
+@kernel(parallel=True, nrt=True)
 def eval_grid_batch(start, gc, gb, params, lo, size, dims, P, mode, depth, out_f, out_g, out_c):
     """Evaluate (N, 3) points in parallel chunks through the grid of specialised programs."""
     n = P.shape[0]
-    nchunks = (n + K.CHUNK - 1) // K.CHUNK
+    nchunks = (n + CHUNK - 1) // CHUNK
     for ch in prange(nchunks):
-        vs, ps = K.scratch(depth)
-        for m in range(ch * K.CHUNK, min(n, (ch + 1) * K.CHUNK)):
+        vs, ps = scratch(depth)
+        for m in range(ch * CHUNK, min(n, (ch + 1) * CHUNK)):
             out_f[m] = eval_point_grid(start, gc, gb, params, lo, size, dims,
                                        P[m, 0], P[m, 1], P[m, 2], mode, vs, ps)
             if mode > 0:

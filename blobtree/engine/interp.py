@@ -1,0 +1,339 @@
+"""The program interpreter: field, gradient and colour at a point, and Lipschitz bounds over boxes
+and segments (see ``program.py`` for the layout and docs/engine.md for how to call these from
+your own kernels).
+
+The program is postfix: primitives push (field, gradient, colour) on a value stack, operators pop
+their children and push the result, warps push a transformed point on a point stack.  Every
+primitive and every BOX instruction first tests its box; a miss pushes 0 and jumps over the
+subtree (``code[i, 2]``), so a subtree whose box misses the point costs one test.  Each node
+type's maths comes from its own kernels through ``dispatch``.
+
+``eval_point``, ``lipschitz_box`` and ``lipschitz_segment`` are compiled once and called (not
+inlined by numba) from the mesher, the ray tracer and the batches: that keeps the first run's
+compilation short.  They are compiled without reference counting (docs/engine.md).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import prange
+
+from ..jit import kernel
+from ..nodes.base import FALLOFF
+from ..nodes.kmath import fo, fo_ds, map_box, map_point, texel
+from .dispatch import (
+    K_BOX,
+    K_OPERATOR,
+    K_PAINT,
+    K_POPPT,
+    K_PRIMITIVE,
+    K_PUSHPT,
+    K_WARP,
+    KIND,
+    LIPSCHITZ,
+    SUM,
+    combine,
+    paint,
+    prim_along,
+    prim_lipschitz,
+    prim_s,
+    prim_uv,
+    warp_map,
+)
+
+DEFAULT_GREY = 0.8
+#: Points per parallel work item of the batch kernels.
+CHUNK = 512
+
+
+@kernel(nrt=True)
+def scratch(depth):
+    """Per-thread stacks for ``eval_point``: values (depth, 7): field, gradient, colour; and
+    points (depth, 30): the point to restore, the Jacobian to the outer frame, warp scratch."""
+    return np.empty((depth, 7)), np.empty((depth, 30))
+
+
+@kernel
+def outside(boxes, i, x, y, z):
+    """Is (x, y, z) outside instruction i's box?"""
+    return (x < boxes[i, 0] or y < boxes[i, 1] or z < boxes[i, 2]
+            or x > boxes[i, 3] or y > boxes[i, 4] or z > boxes[i, 5])
+
+
+@kernel
+def misses(boxes, i, lox, loy, loz, hix, hiy, hiz):
+    """Does the box [lo, hi] miss instruction i's box?"""
+    return (hix < boxes[i, 0] or hiy < boxes[i, 1] or hiz < boxes[i, 2]
+            or lox > boxes[i, 3] or loy > boxes[i, 4] or loz > boxes[i, 5])
+
+
+@kernel
+def push_zero(vs, sp, mode):
+    vs[sp, 0] = 0.0
+    if mode == 0:
+        return
+    vs[sp, 1] = 0.0
+    vs[sp, 2] = 0.0
+    vs[sp, 3] = 0.0
+    vs[sp, 4] = DEFAULT_GREY
+    vs[sp, 5] = DEFAULT_GREY
+    vs[sp, 6] = DEFAULT_GREY
+
+
+@kernel
+def apply_warp(op, p, o, x, y, z, ps, pp, mode):
+    """A warp's query map at the frame point (x, y, z); with mode > 0 its Jacobian is chained
+    into ps[pp, 3:12] (the Jacobian from the point stack's frame to the outer one).
+
+    params[o:o + 9] is the signed permutation Pm to the warp's canonical axes: q = Pm^T w(Pm x)
+    and J = Pm^T Jc Pm."""
+    X = p[o] * x + p[o + 1] * y + p[o + 2] * z
+    Y = p[o + 3] * x + p[o + 4] * y + p[o + 5] * z
+    Z = p[o + 6] * x + p[o + 7] * y + p[o + 8] * z
+    qx, qy, qz, j00, j01, j02, j10, j11, j12, j20, j21, j22 = warp_map(op, p, o, X, Y, Z)
+    nx = p[o] * qx + p[o + 3] * qy + p[o + 6] * qz
+    ny = p[o + 1] * qx + p[o + 4] * qy + p[o + 7] * qz
+    nz = p[o + 2] * qx + p[o + 5] * qy + p[o + 8] * qz
+    if mode == 0:
+        return nx, ny, nz
+    for col in range(3):  # column col of Jc Pm, then of Pm^T (Jc Pm)
+        m0, m1, m2 = p[o + col], p[o + 3 + col], p[o + 6 + col]
+        a0 = j00 * m0 + j01 * m1 + j02 * m2
+        a1 = j10 * m0 + j11 * m1 + j12 * m2
+        a2 = j20 * m0 + j21 * m1 + j22 * m2
+        for r in range(3):
+            ps[pp, 12 + 3 * r + col] = p[o + r] * a0 + p[o + 3 + r] * a1 + p[o + 6 + r] * a2
+    for r in range(3):  # times the Jacobian so far
+        for col in range(3):
+            acc = 0.0
+            for m in range(3):
+                acc += ps[pp, 12 + 3 * r + m] * ps[pp, 3 + 3 * m + col]
+            ps[pp, 21 + 3 * r + col] = acc
+    for q in range(9):
+        ps[pp, 3 + q] = ps[pp, 21 + q]
+    return nx, ny, nz
+
+
+@kernel
+def _primitive(op, code, i, p, o, px, py, pz, mode, vs, sp):
+    """Push a primitive's field (and gradient, colour) at the frame point."""
+    qx, qy, qz = map_point(p, o, px, py, pz)
+    s, sx, sy, sz = prim_s(op, p, o, qx, qy, qz)
+    if s >= 1.0:
+        push_zero(vs, sp, mode)
+        return
+    fid = int(p[o + FALLOFF])
+    vs[sp, 0] = fo(fid, s)
+    if mode == 0:
+        return
+    d = fo_ds(fid, s)
+    gx, gy, gz = d * sx, d * sy, d * sz
+    vs[sp, 1] = p[o] * gx + p[o + 4] * gy + p[o + 8] * gz
+    vs[sp, 2] = p[o + 1] * gx + p[o + 5] * gy + p[o + 9] * gz
+    vs[sp, 3] = p[o + 2] * gx + p[o + 6] * gy + p[o + 10] * gz
+    if mode > 1 and code[i, 3] >= 0:  # painted by a field-interpolated texture
+        tu, tv = prim_uv(op, p, o, qx, qy, qz)
+        vs[sp, 4], vs[sp, 5], vs[sp, 6] = texel(p, code[i, 3], tu, tv)
+    else:
+        vs[sp, 4] = DEFAULT_GREY
+        vs[sp, 5] = DEFAULT_GREY
+        vs[sp, 6] = DEFAULT_GREY
+
+
+@kernel
+def eval_point(code, params, boxes, x, y, z, mode, vs, ps):
+    """Field at (x, y, z); mode 1 also leaves the gradient in vs[0, 1:4], mode 2 the gradient
+    and the colour in vs[0, 4:7]."""
+    n = code.shape[0]
+    p = params
+    sp = 0
+    pp = 0
+    px, py, pz = x, y, z
+    i = 0
+    while i < n:
+        op = code[i, 0]
+        o = code[i, 1]
+        kind = KIND[op]
+        if kind == K_PRIMITIVE:
+            if outside(boxes, i, px, py, pz):
+                push_zero(vs, sp, mode)
+            else:
+                _primitive(op, code, i, p, o, px, py, pz, mode, vs, sp)
+            sp += 1
+            i += 1
+        elif kind == K_OPERATOR:
+            k = code[i, 3]
+            b = sp - k
+            combine(op, vs, b, k, p, o, mode)
+            sp = b + 1
+            i += 1
+        elif kind == K_BOX or kind == K_PUSHPT or kind == K_WARP:
+            if outside(boxes, i, px, py, pz):
+                push_zero(vs, sp, mode)
+                sp += 1
+                i = code[i, 2]
+                continue
+            if kind == K_PUSHPT:
+                nx, ny, nz = map_point(p, o, px, py, pz)
+                pp += 1
+                ps[pp, 0], ps[pp, 1], ps[pp, 2] = px, py, pz  # the point to restore
+                for r in range(3):
+                    for c in range(3):
+                        ps[pp, 3 + 3 * r + c] = p[o + 4 * r + c]
+                px, py, pz = nx, ny, nz
+            elif kind == K_WARP:
+                px, py, pz = apply_warp(op, p, o, px, py, pz, ps, pp, mode)
+            i += 1
+        elif kind == K_POPPT:
+            t = sp - 1
+            if mode > 0:  # gradient back to the outer frame: g <- J^T g
+                gx, gy, gz = vs[t, 1], vs[t, 2], vs[t, 3]
+                vs[t, 1] = ps[pp, 3] * gx + ps[pp, 6] * gy + ps[pp, 9] * gz
+                vs[t, 2] = ps[pp, 4] * gx + ps[pp, 7] * gy + ps[pp, 10] * gz
+                vs[t, 3] = ps[pp, 5] * gx + ps[pp, 8] * gy + ps[pp, 11] * gz
+            px, py, pz = ps[pp, 0], ps[pp, 1], ps[pp, 2]
+            pp -= 1
+            i += 1
+        elif kind == K_PAINT:
+            t = sp - 1
+            if mode > 1 and vs[t, 0] > 0.0:
+                vs[t, 4], vs[t, 5], vs[t, 6] = paint(op, p, o, px, py, pz, vs[t, 1], vs[t, 2],
+                                                     vs[t, 3])
+            i += 1
+        else:  # K_ZERO
+            push_zero(vs, sp, mode)
+            sp += 1
+            i += 1
+    return vs[0, 0]
+
+
+@kernel
+def _prim_bound(op, p, o, lip, ray, pp, lox, loy, loz, hix, hiy, hiz, ox, oy, oz, dx, dy, dz,
+                length):
+    """A primitive's bound over the box, or along the segment where it has a directional one
+    (outside warps, ``ray``)."""
+    if ray and pp == 0:
+        along = prim_along(op, p, o, ox, oy, oz, dx, dy, dz, length)
+        if along >= 0.0:
+            return along
+    cx, cy, cz, hx, hy, hz = map_box(p, o, lox, loy, loz, hix, hiy, hiz)
+    return prim_lipschitz(op, p, o, lip, cx, cy, cz, hx, hy, hz)
+
+
+@kernel
+def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox, oy, oz, dx,
+               dy, dz, length, vs):
+    """``lipschitz_box``; with ``ray``, primitives with a directional bound (outside warps) take
+    it along the segment o + t d, 0 <= t <= length inside the box."""
+    n = code.shape[0]
+    sp = 0
+    pp = 0
+    i = 0
+    while i < n:
+        op = code[i, 0]
+        kind = KIND[op]
+        if kind == K_PRIMITIVE:
+            if misses(boxes, i, lox, loy, loz, hix, hiy, hiz):
+                vs[sp, 0] = 0.0
+            else:
+                vs[sp, 0] = _prim_bound(op, params, code[i, 1], lips[i], ray, pp, lox, loy, loz,
+                                        hix, hiy, hiz, ox, oy, oz, dx, dy, dz, length)
+            sp += 1
+            i += 1
+        elif kind == K_OPERATOR:
+            k = code[i, 3]
+            b = sp - k
+            add = LIPSCHITZ[op] == SUM
+            acc = 0.0
+            for j in range(b, sp):
+                acc = acc + vs[j, 0] if add else max(acc, vs[j, 0])
+            vs[b, 0] = acc
+            sp = b + 1
+            i += 1
+        elif kind == K_BOX or kind == K_PUSHPT or kind == K_WARP:
+            if misses(boxes, i, lox, loy, loz, hix, hiy, hiz):
+                vs[sp, 0] = 0.0
+                sp += 1
+                i = code[i, 2]
+                continue
+            o = code[i, 1]
+            if kind == K_PUSHPT:  # save the region, carry it into the warp's frame
+                pp += 1
+                vs[pp, 1], vs[pp, 2], vs[pp, 3] = lox, loy, loz
+                vs[pp, 4], vs[pp, 5], vs[pp, 6] = hix, hiy, hiz
+                cx, cy, cz, ex, ey, ez = map_box(params, o, lox, loy, loz, hix, hiy, hiz)
+                lox, loy, loz = cx - ex, cy - ey, cz - ez
+                hix, hiy, hiz = cx + ex, cy + ey, cz + ez
+            elif kind == K_WARP:  # the query map moves points by at most stretch * distance
+                cx, cy, cz = 0.5 * (lox + hix), 0.5 * (loy + hiy), 0.5 * (loz + hiz)
+                ex, ey, ez = 0.5 * (hix - lox), 0.5 * (hiy - loy), 0.5 * (hiz - loz)
+                reach = lips[i] * math.sqrt(ex * ex + ey * ey + ez * ez)
+                wx, wy, wz = apply_warp(op, params, o, cx, cy, cz, vs, 0, 0)
+                lox, loy, loz = wx - reach, wy - reach, wz - reach
+                hix, hiy, hiz = wx + reach, wy + reach, wz + reach
+            i += 1
+        elif kind == K_POPPT:
+            vs[sp - 1, 0] *= lips[i]
+            lox, loy, loz = vs[pp, 1], vs[pp, 2], vs[pp, 3]
+            hix, hiy, hiz = vs[pp, 4], vs[pp, 5], vs[pp, 6]
+            pp -= 1
+            i += 1
+        elif kind == K_PAINT:
+            i += 1
+        else:  # K_ZERO
+            vs[sp, 0] = 0.0
+            sp += 1
+            i += 1
+    return vs[0, 0]
+
+
+@kernel
+def lipschitz_box(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, vs):
+    """A bound on |grad f| over the box [lo, hi] (world coordinates): the tree's Lipschitz rules
+    (sum at blends, max at CSG) over only the primitives whose boxes meet it, each with its
+    distance-aware bound; through a warp the box is carried into the warp's child frame (as a
+    cube around the warped centre, grown by the warp's stretch) and the result scaled back.
+    Uses vs[:, 0] as the value stack and vs[:, 1:7] to save regions across warps."""
+    return _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, False, 0.0, 0.0,
+                      0.0, 0.0, 0.0, 0.0, 0.0, vs)
+
+
+@kernel
+def lipschitz_segment(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, length, vs):
+    """A bound on |df/dt| along the segment o + t d, 0 <= t <= length (d a unit vector): the
+    bound of ``lipschitz_box`` over the segment's box, except that primitives with a directional
+    bound (point primitives, outside warps) take it instead (never larger, and small where the
+    segment passes a primitive sideways, so grazing rays take long steps)."""
+    bx, by, bz = ox + length * dx, oy + length * dy, oz + length * dz
+    return _lipschitz(code, params, boxes, lips, min(ox, bx), min(oy, by), min(oz, bz),
+                      max(ox, bx), max(oy, by), max(oz, bz), True, ox, oy, oz, dx, dy, dz,
+                      length, vs)
+
+
+@kernel(parallel=True, nrt=True)
+def eval_batch(code, params, boxes, P, mode, depth, out_f, out_g, out_c):
+    """Evaluate (N, 3) points in parallel chunks; fills out_f and, by mode, out_g / out_c."""
+    n = P.shape[0]
+    nchunks = (n + CHUNK - 1) // CHUNK
+    for ch in prange(nchunks):
+        vs, ps = scratch(depth)
+        for m in range(ch * CHUNK, min(n, (ch + 1) * CHUNK)):
+            out_f[m] = eval_point(code, params, boxes, P[m, 0], P[m, 1], P[m, 2], mode, vs, ps)
+            if mode > 0:
+                out_g[m, 0], out_g[m, 1], out_g[m, 2] = vs[0, 1], vs[0, 2], vs[0, 3]
+            if mode > 1:
+                out_c[m, 0], out_c[m, 1], out_c[m, 2] = vs[0, 4], vs[0, 5], vs[0, 6]
+
+
+@kernel(parallel=True, nrt=True)
+def lipschitz_batch(code, params, boxes, lips, lo, hi, depth, out):
+    """``lipschitz_box`` for many boxes in parallel."""
+    n = lo.shape[0]
+    nchunks = (n + CHUNK - 1) // CHUNK
+    for ch in prange(nchunks):
+        vs, _ = scratch(depth)
+        for m in range(ch * CHUNK, min(n, (ch + 1) * CHUNK)):
+            out[m] = lipschitz_box(code, params, boxes, lips, lo[m, 0], lo[m, 1], lo[m, 2],
+                                   hi[m, 0], hi[m, 1], hi[m, 2], vs)

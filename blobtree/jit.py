@@ -1,0 +1,102 @@
+"""Compiled kernels: numba's ``njit`` with an on-disk cache that knows the whole engine.
+
+numba caches each compiled function on disk keyed on its own source file only.  A kernel that
+calls kernels of other modules (the interpreter calls every node type's kernel) would then keep
+stale machine code after one of those modules changed.  :func:`kernel` keys every cached
+function on a digest of all the package's compiled sources as well (:func:`engine_key`), so a
+change anywhere, a new node type included, recompiles what depends on it, and nothing stale is
+ever loaded.
+
+``tag`` tells apart the closures one factory makes (numba's own key would pickle the functions
+they capture, which differs in every process, so they would never be found in the cache).
+
+Kernels are compiled on first call, so importing the package compiles nothing;
+:func:`on_compile` lets the command line say once that it is compiling.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+import numba
+from numba.core import event
+from numba.core.caching import FunctionCache
+
+_PACKAGE = Path(__file__).resolve().parent
+#: Parts of the package whose code numba never compiles (they cannot change a kernel).
+_NOT_COMPILED = {"cli", "models"}
+
+
+@functools.cache
+def engine_key() -> str:
+    """A digest of every source file of the package numba may compile."""
+    h = hashlib.sha256(numba.__version__.encode())
+    for path in sorted(_PACKAGE.rglob("*.py")):
+        rel = path.relative_to(_PACKAGE)
+        if rel.parts[0] in _NOT_COMPILED:
+            continue
+        h.update(str(rel).encode())
+        h.update(path.read_bytes())
+    return h.hexdigest()[:24]
+
+
+class _EngineCache(FunctionCache):
+    """numba's function cache, with the engine's digest and a closure tag in every key."""
+
+    def __init__(self, py_func: Callable, tag: str) -> None:
+        super().__init__(py_func)
+        self._tag = tag
+
+    def _index_key(self, sig, codegen):
+        code = hashlib.sha256(self._py_func.__code__.co_code).hexdigest()
+        return (sig, codegen.magic_tuple(), (engine_key(), code, self._tag))
+
+
+def kernel(fn: Callable | None = None, *, tag: str = "", nrt: bool = False, **options):
+    """``numba.njit(**options)`` with the engine-keyed cache and numpy's error model (a division
+    by zero gives inf or NaN instead of raising, and loops without such checks vectorise).
+
+    By default kernels are compiled without numba's reference counting (see docs/engine.md:
+    such a kernel must not allocate); ``nrt=True`` for one that allocates.  ``tag`` names a
+    closure made by a factory (see the module doc).
+    """
+
+    def wrap(f: Callable):
+        opts = {"error_model": "numpy", **options}
+        if not nrt:
+            opts["_nrt"] = False
+        dispatcher = numba.njit(**opts)(f)
+        dispatcher._cache = _EngineCache(f, tag)
+        return dispatcher
+
+    return wrap(fn) if fn is not None else wrap
+
+
+class _CompileListener(event.Listener):
+    def __init__(self, callback: Callable[[], None]) -> None:
+        self.callback = callback
+        self.fired = False
+
+    def on_start(self, ev) -> None:
+        if not self.fired:
+            self.fired = True
+            self.callback()
+
+    def on_end(self, ev) -> None:
+        pass
+
+
+@contextmanager
+def on_compile(callback: Callable[[], None]) -> Iterator[_CompileListener]:
+    """Within the block, call ``callback`` once when numba starts compiling anything (a first
+    run, or the first after the package changed); ``listener.fired`` tells whether it did."""
+    listener = _CompileListener(callback)
+    event.register("numba:compile", listener)
+    try:
+        yield listener
+    finally:
+        event.unregister("numba:compile", listener)

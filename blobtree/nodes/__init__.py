@@ -1,0 +1,45 @@
+"""The BlobTree's node types, one module each, registered in ``base.REGISTRY`` on import.
+
+To add a node type, write its module (see docs/extending.md) and import it here: its import
+registers it, and the engine, scene files and tests pick it up from the registry.
+"""
+
+from .affine import Rotate, Scale, Translate
+from .base import (
+    ISO,
+    REGISTRY,
+    Affine,
+    Node,
+    Operator,
+    Paint,
+    Primitive,
+    Unary,
+    check_points,
+)
+from .bend import Bend
+from .blend import Blend, blend
+from .color import Color
+from .cone import Cone, Segment
+from .controlled_blend import ControlledBlend, controlled_blend
+from .cylinder import Cylinder
+from .difference import Difference, difference
+from .intersection import Intersection, intersection
+from .point import Point
+from .ring import Disc, Torus
+from .super_blend import SuperBlend, super_blend
+from .taper import Taper
+from .texture_map import Texture
+from .twist import Twist
+from .union import Union, union
+from .warp import Warp
+
+#: Every concrete node class by its scene-file name (the registry).
+NODE_TYPES = REGISTRY
+
+__all__ = [
+    "ISO", "NODE_TYPES", "REGISTRY", "Affine", "Bend", "Blend", "Color", "Cone",
+    "ControlledBlend", "Cylinder", "Difference", "Disc", "Intersection", "Node", "Operator",
+    "Paint", "Point", "Primitive", "Rotate", "Scale", "Segment", "SuperBlend", "Taper",
+    "Texture", "Torus", "Translate", "Twist", "Unary", "Union", "Warp", "blend", "check_points",
+    "controlled_blend", "difference", "intersection", "super_blend", "union",
+]

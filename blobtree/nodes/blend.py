@@ -1,0 +1,52 @@
+"""Blend: B_1 + ... + B_n, the sum of the fields (the paper's + and the Sigma of Eq. 9)."""
+
+from __future__ import annotations
+
+from ..jit import kernel
+from .base import Node, Operator, OperatorKernels, register, weighted_color
+
+
+@kernel
+def blend_combine(vs, b, k, p, o, mode):
+    f = vs[b, 0]
+    for m in range(b + 1, b + k):
+        f += vs[m, 0]
+    if mode > 0:
+        g0 = g1 = g2 = 0.0
+        c0 = c1 = c2 = 0.0
+        for m in range(b, b + k):
+            g0 += vs[m, 1]
+            g1 += vs[m, 2]
+            g2 += vs[m, 3]
+            c0 += vs[m, 0] * vs[m, 4]
+            c1 += vs[m, 0] * vs[m, 5]
+            c2 += vs[m, 0] * vs[m, 6]
+        vs[b, 1], vs[b, 2], vs[b, 3] = g0, g1, g2
+        if f > 0.0:
+            vs[b, 4], vs[b, 5], vs[b, 6] = c0 / f, c1 / f, c2 / f
+    vs[b, 0] = f
+
+
+@kernel
+def blend_rows(vs, b, k, p, o, nb):
+    for j in range(b + 1, b + k):
+        for m in range(nb):
+            vs[b, m] += vs[j, m]
+
+
+@register
+class Blend(Operator):
+    """B_1 + ... + B_n: the sum of the fields; colour weighted by the fields."""
+
+    TYPE = "blend"
+    ASSOCIATIVE = True
+    KERNELS = OperatorKernels(combine=blend_combine, rows=blend_rows)
+
+    def _ref(self, P, look=None):
+        f, g, c = self._refs(P, look)
+        return f.sum(axis=0), g.sum(axis=0), weighted_color(f, c)
+
+
+def blend(*nodes: Node) -> Blend:
+    """B_1 + B_2 + ... (sum)."""
+    return Blend(*nodes)

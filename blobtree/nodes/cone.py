@@ -1,0 +1,166 @@
+"""Cone and segment primitives: the paper's spines (Section 3.2) and canal (Section 3.1)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .. import geometry as geo
+from .. import texture as tex
+from ..fields import SLOPE
+from ..jit import kernel
+from . import kmath
+from .base import (
+    FALLOFF,
+    FALLOFF_PARAM,
+    GEOMETRY,
+    Layout,
+    Primitive,
+    PrimitiveKernels,
+    register,
+)
+from .params import Param, Vec3, positive
+
+LAYOUT = Layout(GEOMETRY, a=3, b=3, radius_a=1, radius_b=1, frame=6)
+A, B, RA, RB, FRAME = LAYOUT.offsets
+
+
+@kernel
+def cone_s(p, o, qx, qy, qz):
+    """s = r^2 / R(t)^2, t the clamped projection of q on a-b and R(t) linear in t; ds/dq
+    includes R's change where t is not clamped."""
+    a = o + A
+    ax, ay, az = p[a], p[a + 1], p[a + 2]
+    ux, uy, uz = p[o + B] - ax, p[o + B + 1] - ay, p[o + B + 2] - az
+    l2 = ux * ux + uy * uy + uz * uz
+    t_raw = ((qx - ax) * ux + (qy - ay) * uy + (qz - az) * uz) / l2
+    t = min(max(t_raw, 0.0), 1.0)
+    dx, dy, dz = qx - ax - t * ux, qy - ay - t * uy, qz - az - t * uz
+    ra, dr = p[o + RA], p[o + RB] - p[o + RA]
+    rt = ra + t * dr
+    d2 = dx * dx + dy * dy + dz * dz
+    k = 2.0 / (rt * rt)
+    if 0.0 < t_raw < 1.0:
+        c = 2.0 * d2 / (rt * rt * rt) * dr / l2
+        return d2 / (rt * rt), k * dx - c * ux, k * dy - c * uy, k * dz - c * uz
+    return d2 / (rt * rt), k * dx, k * dy, k * dz
+
+
+@kernel
+def cone_uv(p, o, qx, qy, qz):
+    return kmath.axis_uv(p, o + A, o + FRAME, qx, qy, qz, True)
+
+
+@kernel
+def cone_lipschitz(p, o, lip, cx, cy, cz, hx, hy, hz):
+    """The distance-aware bound with R(t) bounded over the t the box can reach."""
+    a = o + A
+    ax, ay, az = p[a], p[a + 1], p[a + 2]
+    ux, uy, uz = p[o + B] - ax, p[o + B + 1] - ay, p[o + B + 2] - az
+    length = math.sqrt(ux * ux + uy * uy + uz * uz)
+    rho = math.sqrt(hx * hx + hy * hy + hz * hz)
+    tc = ((cx - ax) * ux + (cy - ay) * uy + (cz - az) * uz) / (length * length)
+    t = min(max(tc, 0.0), 1.0)
+    dx, dy, dz = cx - ax - t * ux, cy - ay - t * uy, cz - az - t * uz
+    d = math.sqrt(dx * dx + dy * dy + dz * dz)
+    ra, rb = p[o + RA], p[o + RB]
+    t0 = min(max(tc - rho / length, 0.0), 1.0)
+    t1 = min(max(tc + rho / length, 0.0), 1.0)
+    r0, r1 = ra + t0 * (rb - ra), ra + t1 * (rb - ra)
+    rlo, rhi = min(r0, r1), max(r0, r1)
+    # lip = SLOPE (1 + |dR| / L) / min(ra, rb) * |A|: rescale its 1 / min(ra, rb) to 1 / rlo
+    fid = int(p[o + FALLOFF])
+    return lip * kmath.slope_at(fid, max(d - rho, 0.0) / rhi, (d + rho) / rlo) \
+        * min(ra, rb) / rlo
+
+
+KERNELS = PrimitiveKernels(s=cone_s, uv=cone_uv, lipschitz=cone_lipschitz)
+
+
+@register
+class Cone(Primitive):
+    """Segment skeleton a-b whose field radius varies linearly from radius_a to radius_b.
+
+    r / R(t) is used in the falloff, with t the clamped projection on the axis (a scaled-distance
+    cone; our choice: the paper does not define its cone).  The paper's spines are cones.
+    """
+
+    TYPE = "cone"
+    PARAMS = (
+        Param("a", Vec3()),
+        Param("b", Vec3()),
+        Param("radius_a", positive(), doc="field radius at a"),
+        Param("radius_b", positive(), doc="field radius at b"),
+        FALLOFF_PARAM,
+    )
+    LAYOUT = LAYOUT
+    KERNELS = KERNELS
+
+    def _check(self):
+        if np.linalg.norm(self.b - self.a) == 0.0:
+            raise ValueError(f"a and b must differ (zero-length axis at {tuple(self.a)})")
+
+    @property
+    def field_radius(self) -> float:
+        return max(self.radius_a, self.radius_b)
+
+    def pack(self):
+        return LAYOUT.pack(a=self.a, b=self.b, radius_a=self.radius_a, radius_b=self.radius_b,
+                           frame=np.concatenate(tex.perpendicular_frame(self.b - self.a)))
+
+    def _s(self, q):
+        ab = self.b - self.a
+        l2 = ab @ ab
+        t_raw = (q - self.a) @ ab / l2
+        t = np.clip(t_raw, 0.0, 1.0)
+        d = q - (self.a + t[:, None] * ab)
+        dr = self.radius_b - self.radius_a
+        rt = self.radius_a + t * dr
+        d2 = (d * d).sum(axis=1)
+        free = ((t_raw > 0.0) & (t_raw < 1.0))[:, None]
+        ds = 2.0 * d / rt[:, None] ** 2 - np.where(
+            free, (2.0 * d2 / rt**3 * dr)[:, None] * ab / l2, 0.0)
+        return d2 / rt**2, ds
+
+    def uv(self, q):
+        """u = angle around the axis (from :func:`texture.perpendicular_frame`), v = t."""
+        ab = self.b - self.a
+        t = np.clip((q - self.a) @ ab / (ab @ ab), 0.0, 1.0)
+        d = q - (self.a + t[:, None] * ab)
+        e1, e2 = tex.perpendicular_frame(ab)
+        return tex.turn(d @ e2, d @ e1), t
+
+    def _box(self, L):
+        ends = []
+        for p, r in ((self.a, self.radius_a), (self.b, self.radius_b)):
+            c = L[:, :3] @ p + L[:, 3]
+            h = geo.ellipsoid_half(L, r)
+            ends.append((c - h, c + h))
+        return geo.box_union(ends)
+
+    def lipschitz(self):
+        # |grad (r / R(t))| <= (1 + |R_b - R_a| / |b - a|) / min R
+        slope = abs(self.radius_b - self.radius_a) / np.linalg.norm(self.b - self.a)
+        return SLOPE[self.falloff] * (1.0 + slope) / min(self.radius_a, self.radius_b)
+
+
+@register
+class Segment(Cone):
+    """Line-segment skeleton a-b with a constant field radius (a cone with equal radii)."""
+
+    TYPE = "segment"
+    PARAMS = (
+        Param("a", Vec3()),
+        Param("b", Vec3()),
+        Param("radius", positive(), 1.0, "field radius R"),
+        FALLOFF_PARAM,
+    )
+
+    @property
+    def radius_a(self) -> float:
+        return self.radius
+
+    @property
+    def radius_b(self) -> float:
+        return self.radius

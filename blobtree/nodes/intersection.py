@@ -1,0 +1,51 @@
+"""Intersection: B_1 n ... n B_n, the minimum of the fields (CSG)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .. import geometry as geo
+from ..jit import kernel
+from . import kmath
+from .base import Node, Operator, OperatorKernels, pick, register
+
+
+@kernel
+def intersection_combine(vs, b, k, p, o, mode):
+    best = b
+    for j in range(b + 1, b + k):
+        if vs[j, 0] < vs[best, 0]:
+            best = j
+    if best != b:
+        kmath.copy_entry(vs, best, b, 1.0)
+
+
+@kernel
+def intersection_rows(vs, b, k, p, o, nb):
+    for j in range(b + 1, b + k):
+        for m in range(nb):
+            vs[b, m] = min(vs[b, m], vs[j, m])
+
+
+@register
+class Intersection(Operator):
+    """B_1 n ... n B_n: min of the fields; colour and gradient of the winner."""
+
+    TYPE = "intersection"
+    ZERO_FIRST = ZERO_REST = "kill"
+    LIPSCHITZ = "max"
+    IDEMPOTENT = True
+    KERNELS = OperatorKernels(combine=intersection_combine, rows=intersection_rows)
+
+    def _ref(self, P, look=None):
+        f, g, c = self._refs(P, look)
+        i = np.argmin(f, axis=0)
+        return f.min(axis=0), pick(i, g), pick(i, c)
+
+    def combine_boxes(self, boxes):
+        return geo.box_intersection(boxes)
+
+
+def intersection(*nodes: Node) -> Intersection:
+    """B_1 n B_2 n ... (min)."""
+    return Intersection(*nodes)

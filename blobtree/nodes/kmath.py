@@ -1,0 +1,157 @@
+"""Small compiled helpers shared by the node types' kernels (scalars in, scalars out).
+
+The falloffs are ``fields.py``'s plain functions, compiled here, so the numpy reference and the
+kernels evaluate the very same formulas.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..fields import SLOPE_BY_ID, falloff, falloff_ds, falloff_peak
+from ..jit import kernel
+
+fo = kernel(falloff)
+fo_ds = kernel(falloff_ds)
+fo_peak = kernel(falloff_peak)
+
+
+@kernel
+def map_point(p, o, x, y, z):
+    """The 3x4 affine map at params[o:o + 12] applied to (x, y, z)."""
+    return (p[o] * x + p[o + 1] * y + p[o + 2] * z + p[o + 3],
+            p[o + 4] * x + p[o + 5] * y + p[o + 6] * z + p[o + 7],
+            p[o + 8] * x + p[o + 9] * y + p[o + 10] * z + p[o + 11])
+
+
+@kernel
+def map_box(p, o, lox, loy, loz, hix, hiy, hiz):
+    """Centre and half extents of the box around the image of [lo, hi] under the 3x4 affine map
+    at params[o:o + 12]."""
+    cx, cy, cz = map_point(p, o, 0.5 * (lox + hix), 0.5 * (loy + hiy), 0.5 * (loz + hiz))
+    ex, ey, ez = 0.5 * (hix - lox), 0.5 * (hiy - loy), 0.5 * (hiz - loz)
+    return (cx, cy, cz,
+            abs(p[o]) * ex + abs(p[o + 1]) * ey + abs(p[o + 2]) * ez,
+            abs(p[o + 4]) * ex + abs(p[o + 5]) * ey + abs(p[o + 6]) * ez,
+            abs(p[o + 8]) * ex + abs(p[o + 9]) * ey + abs(p[o + 10]) * ez)
+
+
+@kernel
+def turn(y, x):
+    """atan2(y, x) as a fraction of a turn in [0, 1) (as ``texture.turn``)."""
+    t = math.atan2(y, x) / (2.0 * math.pi)
+    if t < 0.0:
+        t += 1.0
+    return 0.0 if t >= 1.0 else t
+
+
+def _slope_peak(fid: int) -> float:
+    """r/R where falloff ``fid`` is steepest: its slope |df/dr| R = 2 (r/R) |f'(s)| rises from 0
+    at the skeleton to one peak and falls to 0 at R (ternary search)."""
+    lo, hi = 0.0, 1.0
+    for _ in range(200):
+        a, b = lo + (hi - lo) / 3.0, hi - (hi - lo) / 3.0
+        if abs(falloff_ds(fid, a * a)) * a < abs(falloff_ds(fid, b * b)) * b:
+            lo = a
+        else:
+            hi = b
+    return lo
+
+
+#: Per falloff id: where the slope peaks (r/R), and the peak slope |df/dr| R.
+SLOPE_PEAK = np.array([_slope_peak(fid) for fid in range(len(SLOPE_BY_ID))])
+PEAK_SLOPE = np.array([2.0 * r * abs(falloff_ds(fid, r * r)) for fid, r in enumerate(SLOPE_PEAK)])
+
+
+@kernel
+def slope_at(fid, rmin, rmax):
+    """max |df/dr| R of falloff fid over r/R in [rmin, rmax], as a fraction of its peak (the
+    slope rises from 0 at the skeleton to one peak and falls to 0 at R)."""
+    if rmin >= 1.0:
+        return 0.0
+    r = min(max(SLOPE_PEAK[fid], rmin), rmax)
+    return 2.0 * r * abs(fo_ds(fid, r * r)) / PEAK_SLOPE[fid]
+
+
+@kernel
+def distance_lipschitz(lip, fid, radius, d, rho):
+    """A primitive's bound over a box whose centre lies at distance d from the skeleton and
+    whose points lie within rho of its centre (segment tracing's distance-aware bound, Galin et
+    al. 2020): the falloff's steepest slope over distances [d - rho, d + rho], scaled from the
+    global bound ``lip``."""
+    return lip * slope_at(fid, max(d - rho, 0.0) / radius, (d + rho) / radius)
+
+
+@kernel
+def _wrap(i, n, mode):
+    if mode == 0:
+        return i % n
+    return min(max(i, 0), n - 1)
+
+
+@kernel
+def texel(p, t, u, v):
+    """Bilinear colour of the texture block at params[t:] ([w, h, wrap, rgb rows in [0, 1]]),
+    as ``texture.sample``."""
+    w, h, wrap = int(p[t]), int(p[t + 1]), int(p[t + 2])
+    x = u * w - 0.5
+    y = v * h - 0.5
+    fx0, fy0 = math.floor(x), math.floor(y)
+    fx, fy = x - fx0, y - fy0
+    x0, y0 = int(fx0), int(fy0)
+    xa, xb = _wrap(x0, w, wrap), _wrap(x0 + 1, w, wrap)
+    ya, yb = _wrap(y0, h, wrap), _wrap(y0 + 1, h, wrap)
+    a, b = t + 3 + 3 * (ya * w + xa), t + 3 + 3 * (ya * w + xb)
+    c, d = t + 3 + 3 * (yb * w + xa), t + 3 + 3 * (yb * w + xb)
+    wa, wb, wc, wd = (1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy
+    return (wa * p[a] + wb * p[b] + wc * p[c] + wd * p[d],
+            wa * p[a + 1] + wb * p[b + 1] + wc * p[c + 1] + wd * p[d + 1],
+            wa * p[a + 2] + wb * p[b + 2] + wc * p[c + 2] + wd * p[d + 2])
+
+
+@kernel
+def axis_uv(p, a, e, qx, qy, qz, on_axis):
+    """(u, v) around the axis a -> b (a at params[a:a + 3], b at [a + 3:a + 6]) with the
+    perpendicular frame e1, e2 at params[e:e + 6] (``texture.perpendicular_frame``): u is the
+    angle about the axis, v the clamped position along it.  The angle is measured from the
+    closest axis point (``on_axis``) or from a."""
+    ax, ay, az = p[a], p[a + 1], p[a + 2]
+    ux, uy, uz = p[a + 3] - ax, p[a + 4] - ay, p[a + 5] - az
+    t = min(max(((qx - ax) * ux + (qy - ay) * uy + (qz - az) * uz)
+                / (ux * ux + uy * uy + uz * uz), 0.0), 1.0)
+    dx, dy, dz = qx - ax, qy - ay, qz - az
+    if on_axis:
+        dx, dy, dz = dx - t * ux, dy - t * uy, dz - t * uz
+    d1 = dx * p[e] + dy * p[e + 1] + dz * p[e + 2]
+    d2 = dx * p[e + 3] + dy * p[e + 4] + dz * p[e + 5]
+    return turn(d2, d1), t
+
+
+@kernel
+def ring_delta(qx, qy, qz, ring, solid):
+    """q minus the closest point of a circle (or solid disc) of radius ``ring`` in the xz plane."""
+    rho = math.sqrt(qx * qx + qz * qz)
+    if solid and rho <= ring:
+        return 0.0, qy, 0.0
+    if rho > 0.0:
+        return qx - ring * qx / rho, qy, qz - ring * qz / rho
+    return qx - ring, qy, qz
+
+
+@kernel
+def squared(dx, dy, dz, radius):
+    """s = |d|^2 / R^2 and ds/dq = 2 d / R^2 for a constant field radius R."""
+    k = 1.0 / (radius * radius)
+    return (dx * dx + dy * dy + dz * dz) * k, 2.0 * k * dx, 2.0 * k * dy, 2.0 * k * dz
+
+
+@kernel
+def copy_entry(vs, src, dst, sign):
+    """Value-stack row src into row dst; sign -1 stores 1 - f and the negated gradient."""
+    vs[dst, 0] = vs[src, 0] if sign > 0 else 1.0 - vs[src, 0]
+    for c in range(1, 4):
+        vs[dst, c] = sign * vs[src, c]
+    for c in range(4, 7):
+        vs[dst, c] = vs[src, c]

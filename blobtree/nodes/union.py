@@ -1,0 +1,47 @@
+"""Union: B_1 U ... U B_n, the maximum of the fields (CSG)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..jit import kernel
+from . import kmath
+from .base import Node, Operator, OperatorKernels, pick, register
+
+
+@kernel
+def union_combine(vs, b, k, p, o, mode):
+    best = b
+    for j in range(b + 1, b + k):
+        if vs[j, 0] > vs[best, 0]:
+            best = j
+    if best != b:
+        kmath.copy_entry(vs, best, b, 1.0)
+
+
+@kernel
+def union_rows(vs, b, k, p, o, nb):
+    for j in range(b + 1, b + k):
+        for m in range(nb):
+            vs[b, m] = max(vs[b, m], vs[j, m])
+
+
+@register
+class Union(Operator):
+    """B_1 U ... U B_n: max of the fields; colour and gradient of the winner."""
+
+    TYPE = "union"
+    LIPSCHITZ = "max"
+    ASSOCIATIVE = True
+    IDEMPOTENT = True
+    KERNELS = OperatorKernels(combine=union_combine, rows=union_rows)
+
+    def _ref(self, P, look=None):
+        f, g, c = self._refs(P, look)
+        i = np.argmax(f, axis=0)
+        return f.max(axis=0), pick(i, g), pick(i, c)
+
+
+def union(*nodes: Node) -> Union:
+    """B_1 U B_2 U ... (max)."""
+    return Union(*nodes)
