@@ -23,7 +23,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 import numba
-from numba.core import event
+from numba.core import event, types
 from numba.core.caching import FunctionCache
 
 _PACKAGE = Path(__file__).resolve().parent
@@ -71,9 +71,22 @@ def kernel(fn: Callable | None = None, *, tag: str = "", nrt: bool = False, **op
             opts["_nrt"] = False
         dispatcher = numba.njit(**opts)(f)
         dispatcher._cache = _EngineCache(f, tag)
+        dispatcher.get_call_template = functools.partial(_call_template, dispatcher)
         return dispatcher
 
     return wrap(fn) if fn is not None else wrap
+
+
+def _call_template(dispatcher, args, kws):
+    """Type a call from compiled code with its constant arguments as plain types.
+
+    numba compiles a separate copy of a function for each constant it is called with from
+    compiled code (``eval_point(..., mode=0)`` and ``(..., mode=2)``, and every kernel below
+    them); typing those arguments as plain ints and floats compiles each kernel once.
+    """
+    args = tuple(types.unliteral(a) for a in args)
+    kws = {k: types.unliteral(v) for k, v in kws.items()}
+    return type(dispatcher).get_call_template(dispatcher, args, kws)
 
 
 class _CompileListener(event.Listener):

@@ -18,10 +18,10 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import numpy as np
-from numba import prange
 
 from ..jit import kernel
 from ..nodes.base import FALLOFF
+from ..parallel import parallel_for, threads
 from .dispatch import (
     K_BOX,
     K_OPERATOR,
@@ -115,13 +115,13 @@ def eval_rows(code, params, boxes, a, b, pts, nb, vs, ps, tmp):
             i += 1
 
 
-@kernel(parallel=True, nrt=True)
-def _bucket_counts(P, lo, size, dims, cell, counts):
-    """Pass 1 of the partition: each point's cell (-1 outside the grid), and per part of the
-    points (one per row of counts) how many fall in each cell."""
+@kernel(nogil=True)
+def _bucket_counts(t0, t1, P, lo, size, dims, cell, counts):
+    """Pass 1 of the partition, for parts t0..t1 - 1 of the points (one per row of counts):
+    each point's cell (-1 outside the grid), and how many of the part's points fall in each."""
     n = P.shape[0]
     nparts = counts.shape[0]
-    for t in prange(nparts):
+    for t in range(t0, t1):
         counts[t, :] = 0
         for j in range(t * n // nparts, (t + 1) * n // nparts):
             c = cell_of(P[j, 0], P[j, 1], P[j, 2], lo, size, dims)
@@ -130,12 +130,13 @@ def _bucket_counts(P, lo, size, dims, cell, counts):
                 counts[t, c] += 1
 
 
-@kernel(parallel=True, nrt=True)
-def _bucket_scatter(P, cell, offsets, xyz, pos):
-    """Pass 2: copy each point to its cell's run of xyz (M, 3), recording where in pos."""
+@kernel(nogil=True)
+def _bucket_scatter(t0, t1, P, cell, offsets, xyz, pos):
+    """Pass 2, for parts t0..t1 - 1: copy each point to its cell's run of xyz (M, 3), recording
+    where in pos."""
     n = P.shape[0]
     nparts = offsets.shape[0]
-    for t in prange(nparts):
+    for t in range(t0, t1):
         for j in range(t * n // nparts, (t + 1) * n // nparts):
             c = cell[j]
             if c < 0:
@@ -147,17 +148,17 @@ def _bucket_scatter(P, cell, offsets, xyz, pos):
                 pos[j] = k
 
 
-@kernel(parallel=True, nrt=True)
-def _eval_runs(start, gc, gb, params, first, xyz, depth, slab, vals):
-    """Evaluate the cell-sorted points xyz in slabs of ``slab`` points (one slab per task, so
-    crowded cells spread over the threads), each cell's run in batches of SUB."""
+@kernel(nrt=True, nogil=True)
+def _eval_runs(t0, t1, start, gc, gb, params, first, xyz, depth, slab, vals):
+    """Evaluate slabs t0..t1 - 1 of ``slab`` cell-sorted points of xyz (slabs, so crowded cells
+    spread over the threads), each cell's run in batches of SUB."""
     m = xyz.shape[0]
-    for t in prange((m + slab - 1) // slab):
+    pts = np.zeros((depth + 1, 3, SUB))
+    vs = np.empty((depth, SUB))
+    ps = np.empty((1, 30))
+    tmp = np.empty((depth, 7))
+    for t in range(t0, t1):
         s0, s1 = t * slab, min(m, (t + 1) * slab)
-        pts = np.zeros((depth + 1, 3, SUB))
-        vs = np.empty((depth, SUB))
-        ps = np.empty((1, 30))
-        tmp = np.empty((depth, 7))
         c = np.searchsorted(first, s0, side="right") - 1
         s = s0
         while s < s1:
@@ -173,9 +174,9 @@ def _eval_runs(start, gc, gb, params, first, xyz, depth, slab, vals):
             s += nb
 
 
-@kernel(parallel=True, nrt=True)
-def _unsort(vals, pos, out):
-    for j in prange(pos.shape[0]):
+@kernel(nogil=True)
+def _unsort(j0, j1, vals, pos, out):
+    for j in range(j0, j1):
         out[j] = vals[pos[j]] if pos[j] >= 0 else 0.0
 
 
@@ -185,14 +186,15 @@ BLOCK = 1 << 20
 SLAB = 1 << 13
 
 
-def field_sorted(grid: Grid, params: np.ndarray, depth: int, P: np.ndarray, out: np.ndarray,
-                 nparts: int) -> None:
-    """Field values of the (N, 3) points P into out, through ``grid`` (compile.Grid): blocks of
-    points are partitioned by cell in ``nparts`` parallel parts, evaluated cell by cell, and the
-    values put back in the points' order."""
+def field_sorted(grid: Grid, params: np.ndarray, depth: int, P: np.ndarray, out: np.ndarray
+                 ) -> None:
+    """Field values of the (N, 3) points P into out, through ``grid`` (program.Grid): blocks of
+    points are partitioned by cell in parallel parts, evaluated cell by cell, and the values put
+    back in the points' order."""
     start, gc, gb = grid.arrays
     lo, size, dims = grid.frame
     ncell = len(start) - 1
+    nparts = threads()
     counts = np.empty((nparts, ncell), dtype=np.int64)
     first = np.zeros(ncell + 1, dtype=np.int64)
     m = min(len(P), BLOCK)
@@ -200,10 +202,11 @@ def field_sorted(grid: Grid, params: np.ndarray, depth: int, P: np.ndarray, out:
     xyz, vals = np.empty((m, 3)), np.empty(m)
     for a in range(0, len(P), BLOCK):
         Q = P[a:a + BLOCK]
-        _bucket_counts(Q, lo, size, dims, cell, counts)
+        parallel_for(_bucket_counts, nparts, Q, lo, size, dims, cell, counts, parts=nparts)
         np.cumsum(counts.sum(axis=0), out=first[1:])
         offsets = first[:-1] + np.cumsum(counts, axis=0) - counts  # each part's place
         k = int(first[-1])
-        _bucket_scatter(Q, cell, offsets, xyz, pos)
-        _eval_runs(start, gc, gb, params, first, xyz[:k], depth, SLAB, vals)
-        _unsort(vals, pos[:len(Q)], out[a:a + BLOCK])
+        parallel_for(_bucket_scatter, nparts, Q, cell, offsets, xyz, pos, parts=nparts)
+        parallel_for(_eval_runs, (k + SLAB - 1) // SLAB, start, gc, gb, params, first, xyz[:k],
+                     depth, SLAB, vals)
+        parallel_for(_unsort, len(Q), vals, pos, out[a:a + BLOCK])

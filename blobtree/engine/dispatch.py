@@ -3,17 +3,15 @@ dispatcher per kind of kernel, all derived from ``nodes.REGISTRY``.
 
 Opcodes 0-3 are the program's own instructions (BOX, PUSHPT, POPPT, ZERO); every registered node
 type with kernels gets the next number, in registration order (programs are never stored, so the
-numbers need not be stable).  A dispatcher is a chain of small compiled functions, one per
-opcode, ``if op == mine: my_kernel(...) else: next(...)``, built from closures over each type's
-kernel (numba compiles the closures' captured functions in; ``jit.kernel``'s tag keeps them
-apart in the cache).  The end of a chain returns NaN: the compiler refuses any node type without
-kernels, so it is never reached, and never runs another node's maths.
+numbers need not be stable).  Each dispatcher is one compiled function generated from the
+registry, ``if op == 4: point_s(...)  if op == 6: cone_s(...) ...`` (:data:`SOURCE` holds the
+generated text).  Its last line returns NaN: the compiler refuses any node type without kernels,
+so it is never reached, and never runs another node's maths.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 
 import numpy as np
 
@@ -61,148 +59,111 @@ def opcode(node: Node) -> int:
     return op
 
 
-# ----- dispatch chains ----------------------------------------------------------------------
-def _name(f: Callable) -> str:
-    py = getattr(f, "py_func", f)
-    return f"{py.__module__}.{py.__qualname__}"
-
-
-def _case(op: int, fn: Callable, rest: Callable, tag: str):
-    @kernel(tag=tag)
-    def case(code, *args):
-        if code == op:
-            return fn(*args)
-        return rest(code, *args)
-
-    return case
-
-
-def _chain(name: str, cases: list[tuple[int, Callable]], miss: Callable):
-    """A dispatcher f(op, *args) calling the kernel of ``op`` among ``cases``, else ``miss``."""
-    d = miss
-    for i in range(len(cases) - 1, -1, -1):
-        tag = name + ":" + ",".join(f"{op}={_name(fn)}" for op, fn in cases[i:])
-        d = _case(cases[i][0], cases[i][1], d, tag)
-    return d
-
-
-@kernel
-def _miss4(code, *args):
-    return math.nan, 0.0, 0.0, 0.0
-
-
-@kernel
-def _miss2(code, *args):
-    return math.nan, math.nan
-
-
-@kernel
-def _miss1(code, *args):
-    return math.nan
-
-
-@kernel
-def _miss3(code, *args):
-    return math.nan, math.nan, math.nan
-
-
-@kernel
-def _miss12(code, *args):
-    n = math.nan
-    return n, n, n, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0
-
-
-@kernel
-def _miss_none(code, *args):
-    return
-
-
-@kernel
-def _no_along(p, o, ox, oy, oz, dx, dy, dz, length):
-    """No directional bound: the caller uses the box bound."""
-    return -1.0
-
-
-def _distance_lipschitz(s_fn: Callable, tag: str):
-    """The default box bound of a primitive with a constant field radius: the distance-aware
-    bound around the box centre (``kmath.distance_lipschitz``)."""
-
-    @kernel(tag=tag)
-    def lipschitz(p, o, lip, cx, cy, cz, hx, hy, hz):
-        s = s_fn(p, o, cx, cy, cz)[0]
-        radius = p[o + RADIUS]
-        return kmath.distance_lipschitz(lip, int(p[o + FALLOFF]), radius, math.sqrt(s) * radius,
-                                        math.sqrt(hx * hx + hy * hy + hz * hz))
-
-    return lipschitz
-
-
-def _prim_rows(s_fn: Callable, tag: str):
-    """A primitive's field at the nb points of a batch (rows of ``engine.batch``): one loop with
-    the primitive's maths compiled in, vectorisable."""
-
-    @kernel(tag=tag)
-    def rows(fid, p, o, pts, pp, vs, sp, nb):
-        for k in range(nb):
-            qx, qy, qz = kmath.map_point(p, o, pts[pp, 0, k], pts[pp, 1, k], pts[pp, 2, k])
-            s = s_fn(p, o, qx, qy, qz)[0]
-            f = kmath.fo(fid, min(s, 1.0))
-            vs[sp, k] = f if s < 1.0 else 0.0
-
-    return rows
-
-
-def _rows_from_combine(combine: Callable, tag: str):
-    """The default field-only batch kernel of an operator: its ``combine`` point by point."""
-
-    @kernel(tag=tag)
-    def rows(vs, b, k, p, o, nb, tmp):
-        for m in range(nb):
-            for j in range(k):
-                tmp[j, 0] = vs[b + j, m]
-            combine(tmp, 0, k, p, o, 0)
-            vs[b, m] = tmp[0, 0]
-
-    return rows
-
-
-def _rows_adapter(rows_fn: Callable, tag: str):
-    @kernel(tag=tag)
-    def rows(vs, b, k, p, o, nb, tmp):
-        rows_fn(vs, b, k, p, o, nb)
-
-    return rows
-
-
+# ----- generated dispatchers ----------------------------------------------------------------
 def _of(kind: str) -> list[type[Node]]:
     return [c for c in TYPES if c.KIND == kind]
 
 
-_PRIMS = _of("primitive")
-_OPS = _of("operator")
+def _dispatcher(name: str, args: str, kind: str, case: str, miss: str) -> str:
+    """Source of ``name(op, args)``: per type of ``kind``, ``if op == OP: <case>``, where the
+    case text names the type's kernels ``K.<kernel>`` (or None: its line is ``miss``)."""
+    lines = [f"def {name}(op, {args}):"]
+    for cls in _of(kind):
+        k = f"k{OPCODE[cls]}_"
+        text = case(cls) if callable(case) else case
+        body = text.replace("K.", k) if text is not None else miss
+        lines.append(f"    if op == {OPCODE[cls]}:")
+        lines.extend("        " + line for line in body.splitlines())
+    lines.append(f"    {miss}")
+    return "\n".join(lines) + "\n"
 
+
+def _kernels() -> dict[str, object]:
+    """Every type's kernels by their name in the generated source: k<opcode>_<kernel>."""
+    out: dict[str, object] = {}
+    for cls in TYPES:
+        for field, fn in vars(cls.KERNELS).items():
+            if fn is not None:
+                out[f"k{OPCODE[cls]}_{field}"] = fn
+    return out
+
+
+_PRIM = "p, o, qx, qy, qz"
+_DEFAULT_LIPSCHITZ = ("s = K.s(p, o, cx, cy, cz)[0]\n"
+                      "return distance_bound(p, o, lip, s, hx, hy, hz)")
+_ROWS = """for k in range(nb):
+    qx, qy, qz = map_point(p, o, pts[pp, 0, k], pts[pp, 1, k], pts[pp, 2, k])
+    s = K.s(p, o, qx, qy, qz)[0]
+    vs[sp, k] = fo(fid, min(s, 1.0)) if s < 1.0 else 0.0
+return"""
+_ROWS_FROM_COMBINE = """for m in range(nb):
+    for j in range(k):
+        tmp[j, 0] = vs[b + j, m]
+    K.combine(tmp, 0, k, p, o, 0)
+    vs[b, m] = tmp[0, 0]
+return"""
+
+SOURCE = "".join([
+    _dispatcher("prim_s", _PRIM, "primitive", f"return K.s({_PRIM})",
+                "return NAN, 0.0, 0.0, 0.0"),
+    _dispatcher("prim_uv", _PRIM, "primitive", f"return K.uv({_PRIM})", "return NAN, NAN"),
+    _dispatcher("prim_lipschitz", "p, o, lip, cx, cy, cz, hx, hy, hz", "primitive",
+                lambda c: ("return K.lipschitz(p, o, lip, cx, cy, cz, hx, hy, hz)"
+                           if c.KERNELS.lipschitz else _DEFAULT_LIPSCHITZ), "return NAN"),
+    _dispatcher("prim_along", "p, o, ox, oy, oz, dx, dy, dz, length", "primitive",
+                lambda c: ("return K.along(p, o, ox, oy, oz, dx, dy, dz, length)"
+                           if c.KERNELS.along else "return -1.0"), "return NAN"),
+    _dispatcher("prim_rows", "fid, p, o, pts, pp, vs, sp, nb", "primitive", _ROWS, "return"),
+    _dispatcher("combine", "vs, b, k, p, o, mode", "operator",
+                "K.combine(vs, b, k, p, o, mode)\nreturn", "return"),
+    _dispatcher("combine_rows", "vs, b, k, p, o, nb, tmp", "operator",
+                lambda c: ("K.rows(vs, b, k, p, o, nb)\nreturn" if c.KERNELS.rows
+                           else _ROWS_FROM_COMBINE), "return"),
+    _dispatcher("warp_map", "p, o, X, Y, Z", "warp", "return K.map(p, o, X, Y, Z)",
+                "return NAN, NAN, NAN, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0"),
+    _dispatcher("paint", "p, o, px, py, pz, gx, gy, gz", "paint",
+                "return K.paint(p, o, px, py, pz, gx, gy, gz)", "return NAN, NAN, NAN"),
+])
+
+
+@kernel
+def distance_bound(p, o, lip, s, hx, hy, hz):
+    """The default box bound of a primitive with a constant field radius R: the distance-aware
+    bound (``kmath.distance_lipschitz``) for a box whose centre has s = d^2 / R^2 and whose half
+    extents are h."""
+    radius = p[o + RADIUS]
+    return kmath.distance_lipschitz(lip, int(p[o + FALLOFF]), radius, math.sqrt(s) * radius,
+                                    math.sqrt(hx * hx + hy * hy + hz * hz))
+
+
+def _build() -> dict[str, object]:
+    """Compile :data:`SOURCE` as if written in this file: numba caches compiled functions by
+    their source file, so the generated dispatchers are cached like any other kernel (and
+    ``jit.engine_key`` recompiles them whenever a node type's module changes)."""
+    namespace = {"__name__": __name__, "NAN": math.nan, "distance_bound": distance_bound,
+                 "fo": kmath.fo, "map_point": kmath.map_point, **_kernels()}
+    exec(compile(SOURCE, __file__, "exec"), namespace)  # noqa: S102 (our own generated code)
+    names = ("prim_s", "prim_uv", "prim_lipschitz", "prim_along", "prim_rows", "combine",
+             "combine_rows", "warp_map", "paint")
+    return {name: kernel(namespace[name]) for name in names}
+
+
+_D = _build()
 #: s, ds/dq of a primitive: prim_s(op, p, o, qx, qy, qz)
-prim_s = _chain("prim_s", [(OPCODE[c], c.KERNELS.s) for c in _PRIMS], _miss4)
+prim_s = _D["prim_s"]
 #: (u, v) of a primitive: prim_uv(op, p, o, qx, qy, qz)
-prim_uv = _chain("prim_uv", [(OPCODE[c], c.KERNELS.uv) for c in _PRIMS], _miss2)
+prim_uv = _D["prim_uv"]
 #: bound on |grad f| over a local box: prim_lipschitz(op, p, o, lip, cx, cy, cz, hx, hy, hz)
-prim_lipschitz = _chain("prim_lipschitz", [
-    (OPCODE[c], c.KERNELS.lipschitz or _distance_lipschitz(c.KERNELS.s, f"lip:{c.TYPE}"))
-    for c in _PRIMS], _miss1)
+prim_lipschitz = _D["prim_lipschitz"]
 #: bound on |df/dt| along a frame segment, or -1: prim_along(op, p, o, ox.., dx.., length)
-prim_along = _chain("prim_along", [(OPCODE[c], c.KERNELS.along or _no_along)
-                                   for c in _PRIMS], _miss1)
+prim_along = _D["prim_along"]
 #: field of a primitive over batch rows: prim_rows(op, fid, p, o, pts, pp, vs, sp, nb)
-prim_rows = _chain("prim_rows", [(OPCODE[c], _prim_rows(c.KERNELS.s, f"prim_rows:{c.TYPE}"))
-                                 for c in _PRIMS], _miss_none)
+prim_rows = _D["prim_rows"]
 #: operator over the value stack: combine(op, vs, b, k, p, o, mode)
-combine = _chain("combine", [(OPCODE[c], c.KERNELS.combine) for c in _OPS], _miss_none)
+combine = _D["combine"]
 #: operator over batch rows: combine_rows(op, vs, b, k, p, o, nb, tmp)
-combine_rows = _chain("combine_rows", [
-    (OPCODE[c], _rows_adapter(c.KERNELS.rows, f"rows:{c.TYPE}") if c.KERNELS.rows
-     else _rows_from_combine(c.KERNELS.combine, f"rows_from:{c.TYPE}")) for c in _OPS],
-    _miss_none)
+combine_rows = _D["combine_rows"]
 #: canonical warp map and Jacobian: warp_map(op, p, o, X, Y, Z)
-warp_map = _chain("warp_map", [(OPCODE[c], c.KERNELS.map) for c in _of("warp")], _miss12)
+warp_map = _D["warp_map"]
 #: colour of a paint node: paint(op, p, o, px, py, pz, gx, gy, gz)
-paint = _chain("paint", [(OPCODE[c], c.KERNELS.paint) for c in _of("paint")], _miss3)
+paint = _D["paint"]

@@ -18,7 +18,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import prange
 
 from ..jit import kernel
 from ..nodes.base import FALLOFF
@@ -44,8 +43,6 @@ from .dispatch import (
 )
 
 DEFAULT_GREY = 0.8
-#: Points per parallel work item of the batch kernels.
-CHUNK = 512
 
 
 @kernel(nrt=True)
@@ -312,28 +309,23 @@ def lipschitz_segment(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, length,
                       length, vs)
 
 
-@kernel(parallel=True, nrt=True)
-def eval_batch(code, params, boxes, P, mode, depth, out_f, out_g, out_c):
-    """Evaluate (N, 3) points in parallel chunks; fills out_f and, by mode, out_g / out_c."""
-    n = P.shape[0]
-    nchunks = (n + CHUNK - 1) // CHUNK
-    for ch in prange(nchunks):
-        vs, ps = scratch(depth)
-        for m in range(ch * CHUNK, min(n, (ch + 1) * CHUNK)):
-            out_f[m] = eval_point(code, params, boxes, P[m, 0], P[m, 1], P[m, 2], mode, vs, ps)
-            if mode > 0:
-                out_g[m, 0], out_g[m, 1], out_g[m, 2] = vs[0, 1], vs[0, 2], vs[0, 3]
-            if mode > 1:
-                out_c[m, 0], out_c[m, 1], out_c[m, 2] = vs[0, 4], vs[0, 5], vs[0, 6]
+@kernel(nrt=True, nogil=True)
+def eval_range(start, stop, code, params, boxes, P, mode, depth, out_f, out_g, out_c):
+    """Evaluate points start..stop - 1 of (N, 3) P; fills out_f and, by mode, out_g / out_c
+    (one part of :func:`parallel.parallel_for`)."""
+    vs, ps = scratch(depth)
+    for m in range(start, stop):
+        out_f[m] = eval_point(code, params, boxes, P[m, 0], P[m, 1], P[m, 2], mode, vs, ps)
+        if mode > 0:
+            out_g[m, 0], out_g[m, 1], out_g[m, 2] = vs[0, 1], vs[0, 2], vs[0, 3]
+        if mode > 1:
+            out_c[m, 0], out_c[m, 1], out_c[m, 2] = vs[0, 4], vs[0, 5], vs[0, 6]
 
 
-@kernel(parallel=True, nrt=True)
-def lipschitz_batch(code, params, boxes, lips, lo, hi, depth, out):
-    """``lipschitz_box`` for many boxes in parallel."""
-    n = lo.shape[0]
-    nchunks = (n + CHUNK - 1) // CHUNK
-    for ch in prange(nchunks):
-        vs, _ = scratch(depth)
-        for m in range(ch * CHUNK, min(n, (ch + 1) * CHUNK)):
-            out[m] = lipschitz_box(code, params, boxes, lips, lo[m, 0], lo[m, 1], lo[m, 2],
-                                   hi[m, 0], hi[m, 1], hi[m, 2], vs)
+@kernel(nrt=True, nogil=True)
+def lipschitz_range(start, stop, code, params, boxes, lips, lo, hi, depth, out):
+    """``lipschitz_box`` for boxes start..stop - 1 of (M, 3) lo, hi."""
+    vs, _ = scratch(depth)
+    for m in range(start, stop):
+        out[m] = lipschitz_box(code, params, boxes, lips, lo[m, 0], lo[m, 1], lo[m, 2],
+                               hi[m, 0], hi[m, 1], hi[m, 2], vs)

@@ -23,13 +23,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import cached_property
 
-import numba
 import numpy as np
 
 from .. import geometry as geo
 from ..fields import FALLOFFS
 from ..nodes.base import Node, Operator, Paint, Primitive
 from ..nodes.warp import Warp
+from ..parallel import parallel_for
 from . import batch as B
 from . import interp as K
 from . import specialize as S
@@ -112,12 +112,13 @@ class Program:
         c = np.empty((n, 3)) if mode > 1 else np.empty((0, 3))
         grid = self.grid if n >= GRID_MIN_POINTS else None
         if grid is not None and mode == 0:
-            B.field_sorted(grid, self.params, self.depth, P, f, numba.get_num_threads())
+            B.field_sorted(grid, self.params, self.depth, P, f)
         elif grid is not None:
-            S.eval_grid_batch(*grid.arrays, self.params, *grid.frame, P, mode, self.depth,
-                              f, g, c)
+            parallel_for(S.eval_grid_range, n, *grid.arrays, self.params, *grid.frame, P, mode,
+                         self.depth, f, g, c)
         else:
-            K.eval_batch(self.code, self.params, self.boxes, P, mode, self.depth, f, g, c)
+            parallel_for(K.eval_range, n, self.code, self.params, self.boxes, P, mode,
+                         self.depth, f, g, c)
         return f, g, c
 
     @cached_property
@@ -161,7 +162,8 @@ class Program:
         lo = np.ascontiguousarray(lo, dtype=np.float64).reshape(-1, 3)
         hi = np.ascontiguousarray(hi, dtype=np.float64).reshape(-1, 3)
         out = np.empty(len(lo))
-        K.lipschitz_batch(self.code, self.params, self.boxes, self.lips, lo, hi, self.depth, out)
+        parallel_for(K.lipschitz_range, len(lo), self.code, self.params, self.boxes, self.lips,
+                     lo, hi, self.depth, out)
         return out
 
 

@@ -18,9 +18,9 @@ for the 126-blob whorl a point then meets ~8 instructions instead of ~26.
 from __future__ import annotations
 
 import numpy as np
-from numba import prange
 
 from ..jit import kernel
+from ..parallel import parallel_for
 from .dispatch import (
     K_OPERATOR,
     K_PRIMITIVE,
@@ -33,7 +33,7 @@ from .dispatch import (
     ZERO_FIRST,
     ZERO_REST,
 )
-from .interp import CHUNK, eval_point, push_zero, scratch
+from .interp import eval_point, push_zero, scratch
 
 
 @kernel
@@ -183,30 +183,30 @@ def _cell_box(c, lo, size, dims, pad, clo, chi):
         chi[ax] = lo[ax] + (k + 1) * size[ax] + pad
 
 
-@kernel(parallel=True, nrt=True)
-def _grid_pass(code, boxes, lips, lo, size, dims, pad, lengths, gc, gb, gl, fill):
-    """Specialise to every cell: record the lengths (``fill`` False), or copy the programs to
-    rows lengths[c]:lengths[c] + m (``fill`` True; lengths then holds the starts)."""
-    ncell = dims[0] * dims[1] * dims[2]
+@kernel(nrt=True, nogil=True)
+def _grid_part(start, stop, code, boxes, lips, lo, size, dims, pad, lengths, gc, gb, gl, fill):
+    """Specialise to cells start..stop - 1: record the lengths (``fill`` False), or copy the
+    programs to rows lengths[c]:lengths[c] + m (``fill`` True; lengths then holds the starts)."""
     n = code.shape[0]
-    nchunk = min(ncell, 256)
-    for ch in prange(nchunk):
-        oc = np.empty((n, 4), dtype=np.int64)  # scratch: specialize may write past its length
-        ob = np.empty((n, 6))
-        ol = np.empty(n)
-        clo = np.empty(3)
-        chi = np.empty(3)
-        work = specialize_work(code)
-        for c in range(ch, ncell, nchunk):
-            _cell_box(c, lo, size, dims, pad, clo, chi)
-            m = specialize(code, boxes, lips, clo, chi, oc, ob, ol, work)
-            if not fill:
-                lengths[c + 1] = m
-            else:
-                a = lengths[c]
-                gc[a:a + m] = oc[:m]
-                gb[a:a + m] = ob[:m]
-                gl[a:a + m] = ol[:m]
+    oc = np.empty((n, 4), dtype=np.int64)  # scratch: specialize may write past its length
+    ob = np.empty((n, 6))
+    ol = np.empty(n)
+    clo = np.empty(3)
+    chi = np.empty(3)
+    work = specialize_work(code)
+    for c in range(start, stop):
+        _cell_box(c, lo, size, dims, pad, clo, chi)
+        m = specialize(code, boxes, lips, clo, chi, oc, ob, ol, work)
+        if not fill:
+            lengths[c + 1] = m
+            continue
+        a = lengths[c]
+        for r in range(m):
+            for q in range(4):
+                gc[a + r, q] = oc[r, q]
+            for q in range(6):
+                gb[a + r, q] = ob[r, q]
+            gl[a + r] = ol[r]
 
 
 def build_grid(code, boxes, lips, lo, size, dims, pad):
@@ -214,11 +214,14 @@ def build_grid(code, boxes, lips, lo, size, dims, pad):
     cell c's program being rows start[c]:start[c + 1] (skip targets relative to its start)."""
     lengths = np.zeros(int(np.prod(dims)) + 1, dtype=np.int64)
     gc, gb, gl = np.empty((0, 4), dtype=np.int64), np.empty((0, 6)), np.empty(0)
-    _grid_pass(code, boxes, lips, lo, size, dims, pad, lengths, gc, gb, gl, False)
+    ncell = len(lengths) - 1
+    parallel_for(_grid_part, ncell, code, boxes, lips, lo, size, dims, pad, lengths, gc, gb, gl,
+                 False)
     start = np.cumsum(lengths)
     total = int(start[-1])
     gc, gb, gl = np.empty((total, 4), dtype=np.int64), np.empty((total, 6)), np.empty(total)
-    _grid_pass(code, boxes, lips, lo, size, dims, pad, start, gc, gb, gl, True)
+    parallel_for(_grid_part, ncell, code, boxes, lips, lo, size, dims, pad, start, gc, gb, gl,
+                 True)
     return start, gc, gb, gl
 
 
@@ -246,17 +249,15 @@ def eval_point_grid(start, gc, gb, params, lo, size, dims, x, y, z, mode, vs, ps
     return eval_point(gc[a:b], params, gb[a:b], x, y, z, mode, vs, ps)
 
 
-@kernel(parallel=True, nrt=True)
-def eval_grid_batch(start, gc, gb, params, lo, size, dims, P, mode, depth, out_f, out_g, out_c):
-    """Evaluate (N, 3) points in parallel chunks through the grid of specialised programs."""
-    n = P.shape[0]
-    nchunks = (n + CHUNK - 1) // CHUNK
-    for ch in prange(nchunks):
-        vs, ps = scratch(depth)
-        for m in range(ch * CHUNK, min(n, (ch + 1) * CHUNK)):
-            out_f[m] = eval_point_grid(start, gc, gb, params, lo, size, dims,
-                                       P[m, 0], P[m, 1], P[m, 2], mode, vs, ps)
-            if mode > 0:
-                out_g[m, 0], out_g[m, 1], out_g[m, 2] = vs[0, 1], vs[0, 2], vs[0, 3]
-            if mode > 1:
-                out_c[m, 0], out_c[m, 1], out_c[m, 2] = vs[0, 4], vs[0, 5], vs[0, 6]
+@kernel(nrt=True, nogil=True)
+def eval_grid_range(start, stop, gstart, gc, gb, params, lo, size, dims, P, mode, depth, out_f,
+                    out_g, out_c):
+    """Evaluate points start..stop - 1 of (N, 3) P through the grid of specialised programs."""
+    vs, ps = scratch(depth)
+    for m in range(start, stop):
+        out_f[m] = eval_point_grid(gstart, gc, gb, params, lo, size, dims, P[m, 0], P[m, 1],
+                                   P[m, 2], mode, vs, ps)
+        if mode > 0:
+            out_g[m, 0], out_g[m, 1], out_g[m, 2] = vs[0, 1], vs[0, 2], vs[0, 3]
+        if mode > 1:
+            out_c[m, 0], out_c[m, 1], out_c[m, 2] = vs[0, 4], vs[0, 5], vs[0, 6]

@@ -27,6 +27,8 @@ import itertools
 import numba as nb
 import numpy as np
 
+from ..parallel import parallel_for
+
 # --- cell geometry, generated (corner c = x + 2y + 4z) ----------------------------------------
 
 _CORNERS = np.array([[c & 1, (c >> 1) & 1, (c >> 2) & 1] for c in range(8)], dtype=np.int64)
@@ -60,7 +62,7 @@ def _face_tables() -> tuple[np.ndarray, np.ndarray]:
 
 
 FACE_CORNERS, FACE_EDGES = _face_tables()
-#: parallel work items per kernel call (each reuses its scratch over its blocks)
+#: parallel parts per kernel call (each reuses its scratch over its blocks)
 CHUNKS = 64
 #: axis and lower-corner lattice offset of each of the 12 cell edges
 EDGE_AXIS = np.array([e // 4 for e in range(12)], dtype=np.int64)
@@ -169,25 +171,21 @@ def _edge_slot(e, i, j, k, m):
     ) * 3 + (EDGE_AXIS[e])
 
 
-@nb.njit(cache=True, parallel=True)
-def _block_counts(values, cell_start, cells, iso):
-    """(edge vertices, centre vertices, triangles) produced by the listed cells of each block."""
-    nblk = values.shape[0]
+@nb.njit(cache=True, nogil=True)
+def _block_counts(start, stop, values, cell_start, cells, iso, counts):
+    """(edge vertices, centre vertices, triangles) produced by the listed cells of blocks
+    start..stop - 1, into counts."""
     m = values.shape[1]
-    counts = np.zeros((nblk, 3), dtype=np.int64)
-    nch = min(nblk, CHUNKS)
-    for ch in nb.prange(nch):
-        seen = np.zeros(m * m * m * 3, dtype=np.bool_)
-        touched = np.empty(m * m * m * 3, dtype=np.int64)
-        nxt = np.empty(12, dtype=np.int64)
-        loops = np.empty(12, dtype=np.int64)
-        loop_len = np.empty(4, dtype=np.int64)
-        v = np.empty(8)
-        for blk in range(ch * nblk // nch, (ch + 1) * nblk // nch):
-            _count_block(
-                values, blk, cell_start, cells, iso, seen, touched, nxt, loops, loop_len, v, counts
-            )
-    return counts
+    seen = np.zeros(m * m * m * 3, dtype=np.bool_)
+    touched = np.empty(m * m * m * 3, dtype=np.int64)
+    nxt = np.empty(12, dtype=np.int64)
+    loops = np.empty(12, dtype=np.int64)
+    loop_len = np.empty(4, dtype=np.int64)
+    v = np.empty(8)
+    for blk in range(start, stop):
+        _count_block(
+            values, blk, cell_start, cells, iso, seen, touched, nxt, loops, loop_len, v, counts
+        )
 
 
 @nb.njit(cache=True)
@@ -234,7 +232,9 @@ def block_triangles(values, origins, cell_start, cells, dims, iso: float):
     * ``tris`` (T, 3): vertex indices, ``i >= 0`` an edge vertex, ``-1 - i`` centre ``i``;
       oriented outward (counter-clockwise seen from the side of lower field).
     """
-    counts = _block_counts(values, cell_start, cells, iso)
+    counts = np.zeros((len(values), 3), dtype=np.int64)
+    parallel_for(_block_counts, len(values), values, cell_start, cells, iso, counts,
+                 parts=min(len(values), CHUNKS))
     off = np.zeros((len(values) + 1, 3), dtype=np.int64)
     np.cumsum(counts, axis=0, out=off[1:])
     keys = np.empty(off[-1, 0], dtype=np.int64)
@@ -242,24 +242,24 @@ def block_triangles(values, origins, cell_start, cells, dims, iso: float):
     f1 = np.empty(off[-1, 0])
     centres = np.empty((off[-1, 1], 3))
     tris = np.empty((off[-1, 2], 3), dtype=np.int64)
-    _block_fill(values, origins, cell_start, cells, dims, iso, off, keys, f0, f1, centres, tris)
+    parallel_for(_block_fill, len(values), values, origins, cell_start, cells, dims, iso, off,
+                 keys, f0, f1, centres, tris, parts=min(len(values), CHUNKS))
     return keys, f0, f1, centres, tris
 
 
-@nb.njit(cache=True, parallel=True)
-def _block_fill(values, origins, cell_start, cells, dims, iso, off, keys, f0, f1, centres, tris):
-    """The work of :func:`block_triangles`, each block writing from its offsets ``off``."""
-    nblk = values.shape[0]
+@nb.njit(cache=True, nogil=True)
+def _block_fill(start, stop, values, origins, cell_start, cells, dims, iso, off, keys, f0, f1,
+                centres, tris):
+    """The work of :func:`block_triangles` for blocks start..stop - 1, each block writing from
+    its offsets ``off``."""
     m = values.shape[1]
-    nch = min(nblk, CHUNKS)
-    for ch in nb.prange(nch):
-        vid = np.full(m * m * m * 3, -1, dtype=np.int64)
-        touched = np.empty(m * m * m * 3, dtype=np.int64)
-        scratch = np.empty(12 + 12 + 4 + 13, dtype=np.int64)
-        v = np.empty(8)
-        for blk in range(ch * nblk // nch, (ch + 1) * nblk // nch):
-            _fill_block(values, blk, origins, cell_start, cells, dims, iso, off, keys, f0, f1,
-                        centres, tris, vid, touched, scratch, v)
+    vid = np.full(m * m * m * 3, -1, dtype=np.int64)
+    touched = np.empty(m * m * m * 3, dtype=np.int64)
+    scratch = np.empty(12 + 12 + 4 + 13, dtype=np.int64)
+    v = np.empty(8)
+    for blk in range(start, stop):
+        _fill_block(values, blk, origins, cell_start, cells, dims, iso, off, keys, f0, f1,
+                    centres, tris, vid, touched, scratch, v)
 
 
 @nb.njit(cache=True)

@@ -16,6 +16,7 @@ from typing import Any
 import numba
 import numpy as np
 
+from ..parallel import parallel_for
 from .camera import Camera, default_camera
 from .checkpoint import Checkpoint, job_key
 from .image import save_image
@@ -145,4 +146,7 @@ def intersect(tree, origins: np.ndarray, directions: np.ndarray,
     code, params, boxes, lips = prog.arrays
     lo, hi = (np.asarray(b, dtype=np.float64) for b in prog.bounds)
     eps = 1e-6 * float(np.linalg.norm(hi - lo))
-    return intersect_rays(code, params, boxes, lips, prog.depth, o, d, lo, hi, tm, eps)
+    out = np.empty(len(o))
+    parallel_for(intersect_rays, len(o), code, params, boxes, lips, prog.depth, o, d, lo, hi, tm,
+                 eps, out)
+    return out

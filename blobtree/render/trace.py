@@ -21,7 +21,6 @@ per-thread scratch of ``interp.scratch``.
 from __future__ import annotations
 
 import numpy as np
-from numba import prange
 
 from ..engine import interp
 from ..jit import kernel
@@ -193,26 +192,24 @@ def march_cone(code, params, boxes, lips, ex, ey, ez, ax, ay, az, tan_a, t, t1, 
     return np.inf
 
 
-@kernel(nrt=True, parallel=True)
-def intersect_rays(code, params, boxes, lips, depth, origins, directions, lo, hi, tmax, eps_abs):
-    """First hit distance of each ray (directions need not be unit; t is in units of |d|)."""
-    n = origins.shape[0]
-    out = np.full(n, np.nan)
-    nchunks = min(n, 256)
-    for c in prange(nchunks):
-        vstack, pstack = interp.scratch(depth)
-        for i in range(c, n, nchunks):
-            dx, dy, dz = directions[i, 0], directions[i, 1], directions[i, 2]
-            norm = np.sqrt(dx * dx + dy * dy + dz * dz)
-            dx /= norm
-            dy /= norm
-            dz /= norm
-            ox, oy, oz = origins[i, 0], origins[i, 1], origins[i, 2]
-            t0, t1 = clip_box(ox, oy, oz, dx, dy, dz, lo, hi, 0.0, tmax[i] * norm)
-            if t0 > t1:
-                continue
-            t = trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, 0.0,
-                      0.05 * (t1 - t0) + eps_abs, vstack, pstack)
-            if t >= 0.0:
-                out[i] = t / norm
-    return out
+@kernel(nrt=True, nogil=True)
+def intersect_rays(start, stop, code, params, boxes, lips, depth, origins, directions, lo, hi,
+                   tmax, eps_abs, out):
+    """First hit distance of rays start..stop - 1 into out, NaN on a miss (directions need not be
+    unit; t is in units of |d|)."""
+    vstack, pstack = interp.scratch(depth)
+    for i in range(start, stop):
+        out[i] = np.nan
+        dx, dy, dz = directions[i, 0], directions[i, 1], directions[i, 2]
+        norm = np.sqrt(dx * dx + dy * dy + dz * dz)
+        dx /= norm
+        dy /= norm
+        dz /= norm
+        ox, oy, oz = origins[i, 0], origins[i, 1], origins[i, 2]
+        t0, t1 = clip_box(ox, oy, oz, dx, dy, dz, lo, hi, 0.0, tmax[i] * norm)
+        if t0 > t1:
+            continue
+        t = trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, 0.0,
+                  0.05 * (t1 - t0) + eps_abs, vstack, pstack)
+        if t >= 0.0:
+            out[i] = t / norm
