@@ -56,13 +56,17 @@ class _EngineCache(FunctionCache):
         return (sig, codegen.magic_tuple(), (engine_key(), code, self._tag))
 
 
-def kernel(fn: Callable | None = None, *, tag: str = "", nrt: bool = False, **options):
+def kernel(fn: Callable | None = None, *, tag: str = "", nrt: bool = False,
+           literal: bool = False, **options):
     """``numba.njit(**options)`` with the engine-keyed cache and numpy's error model (a division
     by zero gives inf or NaN instead of raising, and loops without such checks vectorise).
 
     By default kernels are compiled without numba's reference counting (see docs/engine.md:
-    such a kernel must not allocate); ``nrt=True`` for one that allocates.  ``tag`` names a
-    closure made by a factory (see the module doc).
+    such a kernel must not allocate); ``nrt=True`` for one that allocates.  ``literal=True``
+    compiles a copy of the kernel for each constant a compiled caller passes it (numba's
+    default), so the copy folds the constant in; otherwise constants are typed as plain values
+    and the kernel is compiled once.  ``tag`` names a closure made by a factory (see the module
+    doc).
     """
 
     def wrap(f: Callable):
@@ -71,7 +75,8 @@ def kernel(fn: Callable | None = None, *, tag: str = "", nrt: bool = False, **op
             opts["_nrt"] = False
         dispatcher = numba.njit(**opts)(f)
         dispatcher._cache = _EngineCache(f, tag)
-        dispatcher.get_call_template = functools.partial(_call_template, dispatcher)
+        if not literal:
+            dispatcher.get_call_template = functools.partial(_call_template, dispatcher)
         return dispatcher
 
     return wrap(fn) if fn is not None else wrap

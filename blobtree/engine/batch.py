@@ -30,8 +30,8 @@ from .dispatch import (
     K_PUSHPT,
     K_WARP,
     K_ZERO,
-    KIND,
     combine_rows,
+    kind_of,
     prim_rows,
 )
 from .interp import apply_warp, outside
@@ -76,7 +76,7 @@ def eval_rows(code, params, boxes, a, b, pts, nb, vs, ps, tmp):
     while i < n:
         op = code[a + i, 0]
         o = code[a + i, 1]
-        kind = KIND[op]
+        kind = kind_of(op)
         if kind == K_PRIMITIVE:
             prim_rows(op, int(p[o + FALLOFF]), p, o, pts, pp, vs, sp, nw)
             sp += 1

@@ -1,12 +1,14 @@
 """The engine's view of the node registry: opcodes, their kinds and rules, and one compiled
 dispatcher per kind of kernel, all derived from ``nodes.REGISTRY``.
 
-Opcodes 0-3 are the program's own instructions (BOX, PUSHPT, POPPT, ZERO); every registered node
-type with kernels gets the next number, in registration order (programs are never stored, so the
-numbers need not be stable).  Each dispatcher is one compiled function generated from the
-registry, ``if op == 4: point_s(...)  if op == 6: cone_s(...) ...`` (:data:`SOURCE` holds the
-generated text).  Its last line returns NaN: the compiler refuses any node type without kernels,
-so it is never reached, and never runs another node's maths.
+Every registered node type with kernels gets an opcode, primitives first, then operators, warps
+and paint nodes (so each kind is a range of opcodes), then come the program's own instructions
+(BOX, PUSHPT, POPPT, ZERO).  Programs are never stored, so the numbers need not be stable.
+
+Each dispatcher is one compiled function generated from the registry,
+``if op == 3: return k3_s(...)  if op == 4: ...`` (:data:`SOURCE` holds the generated text).  Its
+last line returns NaN: the compiler refuses any node type without kernels, so it is never
+reached, and never runs another node's maths.
 """
 
 from __future__ import annotations
@@ -19,35 +21,58 @@ from ..jit import kernel
 from ..nodes import REGISTRY, kmath
 from ..nodes.base import FALLOFF, LIPSCHITZ_RULES, RADIUS, ZERO_RULES, Node, freeze_registry
 
-# ----- the program's own instructions -------------------------------------------------------
-OP_BOX, OP_PUSHPT, OP_POPPT, OP_ZERO = 0, 1, 2, 3
-
-#: Kinds of instructions (``KIND[op]``).
+#: Kinds of instructions, in opcode order.
 K_PRIMITIVE, K_OPERATOR, K_WARP, K_PAINT, K_BOX, K_PUSHPT, K_POPPT, K_ZERO = range(8)
 _KIND_OF = {"primitive": K_PRIMITIVE, "operator": K_OPERATOR, "warp": K_WARP, "paint": K_PAINT}
 
 freeze_registry("blobtree.engine.dispatch")
 
-#: Node types with kernels, and their opcodes.
-TYPES: list[type[Node]] = [cls for cls in REGISTRY.values() if cls.KIND in _KIND_OF]
-OPCODE: dict[type[Node], int] = {cls: 4 + i for i, cls in enumerate(TYPES)}
-NAMES = ["BOX", "PUSHPT", "POPPT", "ZERO"] + [cls.TYPE for cls in TYPES]
+#: Node types with kernels, grouped by kind (so a kind is a range of opcodes), and their opcodes.
+TYPES: list[type[Node]] = sorted((c for c in REGISTRY.values() if c.KIND in _KIND_OF),
+                                 key=lambda c: _KIND_OF[c.KIND])
+OPCODE: dict[type[Node], int] = {cls: i for i, cls in enumerate(TYPES)}
+_ENDS = [sum(1 for c in TYPES if _KIND_OF[c.KIND] <= k) for k in range(4)]
+#: Ends of the opcode ranges of primitives, operators, warps and paint nodes.
+PRIMITIVE_END, OPERATOR_END, WARP_END, PAINT_END = _ENDS
+# ----- the program's own instructions, after the node types' --------------------------------
+OP_BOX, OP_PUSHPT, OP_POPPT, OP_ZERO = range(PAINT_END, PAINT_END + 4)
+NAMES = [cls.TYPE for cls in TYPES] + ["BOX", "PUSHPT", "POPPT", "ZERO"]
 
-KIND = np.array([K_BOX, K_PUSHPT, K_POPPT, K_ZERO] + [_KIND_OF[c.KIND] for c in TYPES],
+#: The kind of each opcode (for Python; kernels call :func:`kind_of`).
+KIND = np.array([_KIND_OF[c.KIND] for c in TYPES] + [K_BOX, K_PUSHPT, K_POPPT, K_ZERO],
                 dtype=np.int64)
+
+
+@kernel
+def kind_of(op):
+    """The kind of an opcode: comparisons against the ranges, which the compiler folds into the
+    branches on the kind."""
+    if op < PRIMITIVE_END:
+        return K_PRIMITIVE
+    if op < OPERATOR_END:
+        return K_OPERATOR
+    if op < WARP_END:
+        return K_WARP
+    if op < PAINT_END:
+        return K_PAINT
+    return K_BOX + op - PAINT_END
+
+
+def _table(attr: str, rules: tuple[str, ...], default: str, structural: str) -> np.ndarray:
+    """Per opcode, the index in ``rules`` of a type's declared rule (``structural`` for the
+    program's own instructions)."""
+    return np.array([rules.index(getattr(c, attr, default)) for c in TYPES]
+                    + [rules.index(structural)] * 4, dtype=np.int64)
 
 
 DROP, KEEP, KILL = (ZERO_RULES.index(r) for r in ("drop", "keep", "kill"))
 #: What a zero first / later child does to an operator (paints die with their child).
-ZERO_FIRST = np.array([DROP] * 4 + [ZERO_RULES.index(
-    getattr(c, "ZERO_FIRST", "kill")) for c in TYPES], dtype=np.int64)
-ZERO_REST = np.array([DROP] * 4 + [ZERO_RULES.index(
-    getattr(c, "ZERO_REST", "kill")) for c in TYPES], dtype=np.int64)
+ZERO_FIRST = _table("ZERO_FIRST", ZERO_RULES, "kill", "drop")
+ZERO_REST = _table("ZERO_REST", ZERO_RULES, "kill", "drop")
 SUM, MAX = (LIPSCHITZ_RULES.index(r) for r in ("sum", "max"))
-LIPSCHITZ = np.array([SUM] * 4 + [LIPSCHITZ_RULES.index(getattr(c, "LIPSCHITZ", "sum"))
-                                  for c in TYPES], dtype=np.int64)
+LIPSCHITZ = _table("LIPSCHITZ", LIPSCHITZ_RULES, "sum", "sum")
 #: Value-stack rows an operator needs beyond its children.
-STACK = np.array([0] * 4 + [getattr(c, "STACK", 0) for c in TYPES], dtype=np.int64)
+STACK = np.array([getattr(c, "STACK", 0) for c in TYPES] + [0] * 4, dtype=np.int64)
 
 
 def opcode(node: Node) -> int:
@@ -145,7 +170,10 @@ def _build() -> dict[str, object]:
     exec(compile(SOURCE, __file__, "exec"), namespace)  # noqa: S102 (our own generated code)
     names = ("prim_s", "prim_uv", "prim_lipschitz", "prim_along", "prim_rows", "combine",
              "combine_rows", "warp_map", "paint")
-    return {name: kernel(namespace[name]) for name in names}
+    # each called from one place in an interpreter's loop: compiled into it
+    inline = {"combine", "prim_s", "combine_rows"}
+    return {name: kernel(namespace[name], inline="always" if name in inline else "never")
+            for name in names}
 
 
 _D = _build()

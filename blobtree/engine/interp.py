@@ -30,10 +30,10 @@ from .dispatch import (
     K_PRIMITIVE,
     K_PUSHPT,
     K_WARP,
-    KIND,
     LIPSCHITZ,
     SUM,
     combine,
+    kind_of,
     paint,
     prim_along,
     prim_lipschitz,
@@ -113,7 +113,7 @@ def apply_warp(op, p, o, x, y, z, ps, pp, mode):
     return nx, ny, nz
 
 
-@kernel
+@kernel(inline="always")
 def _primitive(op, code, i, p, o, px, py, pz, mode, vs, sp):
     """Push a primitive's field (and gradient, colour) at the frame point."""
     qx, qy, qz = map_point(p, o, px, py, pz)
@@ -139,10 +139,12 @@ def _primitive(op, code, i, p, o, px, py, pz, mode, vs, sp):
         vs[sp, 6] = DEFAULT_GREY
 
 
-@kernel
+@kernel(literal=True)
 def eval_point(code, params, boxes, x, y, z, mode, vs, ps):
     """Field at (x, y, z); mode 1 also leaves the gradient in vs[0, 1:4], mode 2 the gradient
-    and the colour in vs[0, 4:7]."""
+    and the colour in vs[0, 4:7].  Compiled once for each constant mode its callers pass (0:
+    field only, for tracing; 2: everything, for shading), each with the other modes' work
+    folded away."""
     n = code.shape[0]
     p = params
     sp = 0
@@ -152,7 +154,7 @@ def eval_point(code, params, boxes, x, y, z, mode, vs, ps):
     while i < n:
         op = code[i, 0]
         o = code[i, 1]
-        kind = KIND[op]
+        kind = kind_of(op)
         if kind == K_PRIMITIVE:
             if outside(boxes, i, px, py, pz):
                 push_zero(vs, sp, mode)
@@ -230,7 +232,7 @@ def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox,
     i = 0
     while i < n:
         op = code[i, 0]
-        kind = KIND[op]
+        kind = kind_of(op)
         if kind == K_PRIMITIVE:
             if misses(boxes, i, lox, loy, loz, hix, hiy, hiz):
                 vs[sp, 0] = 0.0
@@ -315,7 +317,10 @@ def eval_range(start, stop, code, params, boxes, P, mode, depth, out_f, out_g, o
     (one part of :func:`parallel.parallel_for`)."""
     vs, ps = scratch(depth)
     for m in range(start, stop):
-        out_f[m] = eval_point(code, params, boxes, P[m, 0], P[m, 1], P[m, 2], mode, vs, ps)
+        if mode == 0:
+            out_f[m] = eval_point(code, params, boxes, P[m, 0], P[m, 1], P[m, 2], 0, vs, ps)
+            continue
+        out_f[m] = eval_point(code, params, boxes, P[m, 0], P[m, 1], P[m, 2], 2, vs, ps)
         if mode > 0:
             out_g[m, 0], out_g[m, 1], out_g[m, 2] = vs[0, 1], vs[0, 2], vs[0, 3]
         if mode > 1:

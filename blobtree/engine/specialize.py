@@ -28,10 +28,10 @@ from .dispatch import (
     K_ZERO,
     KEEP,
     KILL,
-    KIND,
     OP_ZERO,
     ZERO_FIRST,
     ZERO_REST,
+    kind_of,
 )
 from .interp import eval_point, push_zero, scratch
 
@@ -113,9 +113,9 @@ def specialize(code, boxes, lips, lo, hi, oc, ob, ol, work):
                     n = _zero(oc, ob, ol, n)
                 z = True
             else:  # an operator left with one child is that child; a paint node stays
-                if KIND[cop] != K_OPERATOR or f_kept[top] > 1:
+                if kind_of(cop) != K_OPERATOR or f_kept[top] > 1:
                     n = _copy(code, boxes, lips, closing, oc, ob, ol, n)
-                    if KIND[cop] == K_OPERATOR:
+                    if kind_of(cop) == K_OPERATOR:
                         oc[n - 1, 3] = f_kept[top]
                 if f_head[top] >= 0:
                     oc[f_head[top], 2] = n
@@ -128,8 +128,8 @@ def specialize(code, boxes, lips, lo, hi, oc, ob, ol, work):
             # does the open operator keep a zero child in place (else it drops it, or dies)?
             drop = top >= 0 and _rule(code[f_end[top] - 1, 0], f_first[top]) != KEEP
             op = code[i, 0]
-            if KIND[op] == K_PRIMITIVE or KIND[op] == K_ZERO:
-                if KIND[op] == K_ZERO or _misses(boxes, i, lo, hi):
+            if kind_of(op) == K_PRIMITIVE or kind_of(op) == K_ZERO:
+                if kind_of(op) == K_ZERO or _misses(boxes, i, lo, hi):
                     z = True
                     if not drop:
                         n = _zero(oc, ob, ol, n)
@@ -143,7 +143,7 @@ def specialize(code, boxes, lips, lo, hi, oc, ob, ol, work):
                     n = _zero(oc, ob, ol, n)
                 i = code[i, 2]
                 have = True
-            elif KIND[op] == K_PUSHPT:  # inside a warp the frame differs: copy verbatim
+            elif kind_of(op) == K_PUSHPT:  # inside a warp the frame differs: copy verbatim
                 shift = n - i
                 for j in range(i, code[i, 2]):
                     n = _copy(code, boxes, lips, j, oc, ob, ol, n)
@@ -238,7 +238,7 @@ def cell_of(x, y, z, lo, size, dims):
     return c
 
 
-@kernel
+@kernel(literal=True)
 def eval_point_grid(start, gc, gb, params, lo, size, dims, x, y, z, mode, vs, ps):
     """``kernels.eval_point`` through the grid of specialised programs (0 outside the grid)."""
     c = cell_of(x, y, z, lo, size, dims)
@@ -255,8 +255,12 @@ def eval_grid_range(start, stop, gstart, gc, gb, params, lo, size, dims, P, mode
     """Evaluate points start..stop - 1 of (N, 3) P through the grid of specialised programs."""
     vs, ps = scratch(depth)
     for m in range(start, stop):
+        if mode == 0:
+            out_f[m] = eval_point_grid(gstart, gc, gb, params, lo, size, dims, P[m, 0],
+                                       P[m, 1], P[m, 2], 0, vs, ps)
+            continue
         out_f[m] = eval_point_grid(gstart, gc, gb, params, lo, size, dims, P[m, 0], P[m, 1],
-                                   P[m, 2], mode, vs, ps)
+                                   P[m, 2], 2, vs, ps)
         if mode > 0:
             out_g[m, 0], out_g[m, 1], out_g[m, 2] = vs[0, 1], vs[0, 2], vs[0, 3]
         if mode > 1:

@@ -13,11 +13,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..engine import interp
-from ..engine.specialize import specialize, specialize_work
+from ..engine.specialize import specialize
 from ..jit import kernel
 from .camera import Camera, as_color
-from .shade import Light, linear_to_srgb_byte, pack_lights, shade, srgb_to_linear
+from .shade import Light, linear_to_srgb_byte, pack_lights, shade, srgb_to_linear_array
 from .trace import clip_box, march_cone, trace_from_local
 
 #: Largest image side accepted (a 16384^2 image is 805 MB of RGB).
@@ -28,7 +27,7 @@ MAX_SAMPLES = 1024
 EPS_SCENE = 1e-6
 #: Shadow-ray start offset along the normal, as a fraction of the scene's diagonal.
 SHADOW_OFFSET = 1e-4
-#: Side in pixels of the cones marched before single rays (see ``_render_rect``).
+#: Side in pixels of the cones marched before single rays (see ``_render_blocks``).
 BLOCK, SUB = 16, 4
 #: Length of the stretch of a SUB cone (in cone radii) its specialised program covers.
 LOCAL_SPAN = 32.0
@@ -97,10 +96,30 @@ def trace_rect(prog, cam: np.ndarray, lights: np.ndarray, settings: RenderSettin
     lo, hi = (np.asarray(b, dtype=np.float64) for b in prog.bounds)
     diag = float(np.linalg.norm(hi - lo))
     s = settings
-    return _render_rect(code, params, boxes, lips, prog.depth, cam, lights, lo, hi,
-                        s.width, s.height, s.samples, s.shadows, np.array(s.background),
-                        s.ambient, s.specular, s.shininess, EPS_SCENE * diag,
-                        SHADOW_OFFSET * diag, s.seed, x0, y0, x1, y1)
+    out = np.empty((y1 - y0, x1 - x0, 3), dtype=np.uint8)
+    background = np.array(s.background, dtype=np.float64)
+    bg = srgb_to_linear_array(background)
+    bg_bytes = (background * 255.0 + 0.5).astype(np.int64).astype(np.uint8)
+    # Camera rays may skip features thinner than half a pixel's footprint (along the ray).
+    eps_rel = float(np.linalg.norm(cam[9:12])) / s.height
+    # No ray meets the surface before reaching the bounds box, nor after its farthest corner.
+    eye = cam[:3]
+    t_near = float(np.linalg.norm(np.maximum(np.maximum(lo - eye, 0.0), eye - hi)))
+    t_far = float(np.linalg.norm(np.maximum(np.abs(eye - lo), np.abs(eye - hi))))
+    # Blocks and sub-blocks lie on a grid fixed to the image, not to the rectangle, and their
+    # cones always cover the whole grid cell: a pixel's result never depends on the tiling.
+    gx0, gy0 = x0 // BLOCK, y0 // BLOCK
+    nbx, nby = (x1 - 1) // BLOCK - gx0 + 1, (y1 - 1) // BLOCK - gy0 + 1
+    n = len(code)
+    scratch = (np.empty((prog.depth, 7)), np.empty((prog.depth, 30)))
+    local = (np.empty((n, 4), dtype=np.int64), np.empty((n, 6)), np.empty(n))
+    block = (np.empty((n, 4), dtype=np.int64), np.empty((n, 6)), np.empty(n))
+    _render_blocks(code, params, boxes, lips, cam, lights, lo, hi, s.width, s.height, s.samples,
+                   s.shadows, bg, bg_bytes, s.ambient, s.specular, s.shininess,
+                   EPS_SCENE * diag, eps_rel, SHADOW_OFFSET * diag, s.seed, x0, y0, x1, y1, gx0,
+                   gy0, nbx, nby, t_near, t_far, out, np.empty(3), *scratch, *local, *block,
+                   np.empty(3), np.empty(3), np.empty((7, n + 1), dtype=np.int64))
+    return out
 
 
 @kernel
@@ -218,65 +237,17 @@ def _localize(code, boxes, lips, cam, ax, ay, az, tan_a, t_a, t_b, oc, ob, ol, l
     return oc[:n], ob[:n], ol[:n]
 
 
-@kernel(nrt=True, nogil=True)
-def _render_rect(code, params, boxes, lips, depth, cam, lights, lo, hi, width, height, samples,
-                 shadows, background, ambient, specular, shininess, eps_abs, shadow_eps, seed,
-                 x0, y0, x1, y1):
-    """Pixels [x0, x1) x [y0, y1), on one core without the GIL: blocks of BLOCK^2 pixels, each
-    first marched as one cone, then as cones of SUB^2 pixels (on the program specialised to the
-    block cone's stretch past where it stopped, then on the whole program beyond it); each of
-    those specialises the program to the stretch of its cone just past where it stopped, then
-    traces its rays one by one."""
-    out = np.empty((y1 - y0, x1 - x0, 3), dtype=np.uint8)
-    bg = np.empty(3)
-    bg_bytes = np.empty(3, dtype=np.uint8)
-    for c in range(3):
-        bg[c] = srgb_to_linear(background[c])
-        bg_bytes[c] = np.uint8(int(background[c] * 255.0 + 0.5))
-    # Camera rays may skip features thinner than half a pixel's footprint (along the ray).
-    eps_rel = np.sqrt(cam[9] ** 2 + cam[10] ** 2 + cam[11] ** 2) / height
-    # No ray meets the surface before reaching the bounds box, nor after its farthest corner.
-    t_near = 0.0
-    t_far = 0.0
-    for k in range(3):
-        e = cam[k]
-        g = max(lo[k] - e, 0.0, e - hi[k])
-        t_near += g * g
-        t_far += max(abs(e - lo[k]), abs(e - hi[k])) ** 2
-    t_near = np.sqrt(t_near)
-    t_far = np.sqrt(t_far)
-    # Blocks and sub-blocks lie on a grid fixed to the image, not to the rectangle, and their
-    # cones always cover the whole grid cell: a pixel's result never depends on the tiling.
-    gx0 = x0 // BLOCK
-    gy0 = y0 // BLOCK
-    nbx = (x1 - 1) // BLOCK - gx0 + 1
-    nby = (y1 - 1) // BLOCK - gy0 + 1
-    ncode = code.shape[0]
-    vstack, pstack = interp.scratch(depth)
-    rgb = np.empty(3)
-    oc = np.empty((ncode, 4), dtype=np.int64)
-    ob = np.empty((ncode, 6))
-    ol = np.empty(ncode)
-    boc = np.empty((ncode, 4), dtype=np.int64)
-    bob = np.empty((ncode, 6))
-    bol = np.empty(ncode)
-    rlo = np.empty(3)
-    rhi = np.empty(3)
-    work = specialize_work(code)
-    _render_blocks(code, params, boxes, lips, cam, lights, lo, hi, width, height, samples,
-                   shadows, bg, bg_bytes, ambient, specular, shininess, eps_abs, eps_rel,
-                   shadow_eps, seed, x0, y0, x1, y1, gx0, gy0, nbx, nby, t_near, t_far, out, rgb,
-                   vstack, pstack, oc, ob, ol, boc, bob, bol, rlo, rhi, work)
-    return out
-
-
-@kernel
+@kernel(nogil=True)
 def _render_blocks(code, params, boxes, lips, cam, lights, lo, hi, width, height, samples,
                    shadows, bg, bg_bytes, ambient, specular, shininess, eps_abs, eps_rel,
                    shadow_eps, seed, x0, y0, x1, y1, gx0, gy0, nbx, nby, t_near, t_far, out, rgb,
                    vstack, pstack, oc, ob, ol, boc, bob, bol, rlo, rhi, work):
-    """The loops of :func:`_render_rect` over the nbx x nby blocks from block (gx0, gy0), on
-    buffers it allocated.  Compiled without reference counting (like every kernel on the way
+    """Pixels [x0, x1) x [y0, y1), on one core without the GIL, on buffers ``trace_rect``
+    allocated: the nbx x nby blocks of BLOCK^2 pixels from block (gx0, gy0), each first marched
+    as one cone, then as cones of SUB^2 pixels (on the program specialised to the block cone's
+    stretch past where it stopped, then on the whole program beyond it); each of those
+    specialises the program to the stretch of its cone just past where it stopped, then traces
+    its rays one by one.  Compiled without reference counting (like every kernel on the way
     from here to the field: numba's atomic counts on the shared program arrays cost a quarter
     of the time with two threads), so nothing here allocates or keeps an array."""
     for b in range(nbx * nby):
