@@ -103,13 +103,21 @@ def _dispatcher(name: str, args: str, kind: str, case: str, miss: str) -> str:
     return "\n".join(lines) + "\n"
 
 
+#: Kernels compiled into their dispatcher (the rest are called): the bounds the ray tracer asks
+#: for at every step, and the operators, whose work is small next to a call.
+INLINE_KERNELS = ("along", "lipschitz", "combine", "rows")
+#: Dispatchers compiled into their one caller.
+INLINE_DISPATCHERS = ("prim_s", "prim_along", "prim_lipschitz", "combine", "combine_rows")
+
+
 def _kernels() -> dict[str, object]:
-    """Every type's kernels by their name in the generated source: k<opcode>_<kernel>."""
+    """Every type's kernels by their name in the generated source, k<opcode>_<kernel>."""
     out: dict[str, object] = {}
     for cls in TYPES:
         for field, fn in vars(cls.KERNELS).items():
             if fn is not None:
-                out[f"k{OPCODE[cls]}_{field}"] = fn
+                out[f"k{OPCODE[cls]}_{field}"] = (kernel(fn.py_func, inline="always")
+                                                  if field in INLINE_KERNELS else fn)
     return out
 
 
@@ -170,9 +178,8 @@ def _build() -> dict[str, object]:
     exec(compile(SOURCE, __file__, "exec"), namespace)  # noqa: S102 (our own generated code)
     names = ("prim_s", "prim_uv", "prim_lipschitz", "prim_along", "prim_rows", "combine",
              "combine_rows", "warp_map", "paint")
-    # each called from one place in an interpreter's loop: compiled into it
-    inline = {"combine", "prim_s", "combine_rows"}
-    return {name: kernel(namespace[name], inline="always" if name in inline else "never")
+    return {name: kernel(namespace[name],
+                         inline="always" if name in INLINE_DISPATCHERS else "never")
             for name in names}
 
 

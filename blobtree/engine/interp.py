@@ -139,7 +139,7 @@ def _primitive(op, code, i, p, o, px, py, pz, mode, vs, sp):
         vs[sp, 6] = DEFAULT_GREY
 
 
-@kernel(literal=True)
+@kernel
 def eval_point(code, params, boxes, x, y, z, mode, vs, ps):
     """Field at (x, y, z); mode 1 also leaves the gradient in vs[0, 1:4], mode 2 the gradient
     and the colour in vs[0, 4:7].  Compiled once for each constant mode its callers pass (0:
@@ -208,7 +208,7 @@ def eval_point(code, params, boxes, x, y, z, mode, vs, ps):
     return vs[0, 0]
 
 
-@kernel
+@kernel(inline="always")
 def _prim_bound(op, p, o, lip, ray, pp, lox, loy, loz, hix, hiy, hiz, ox, oy, oz, dx, dy, dz,
                 length):
     """A primitive's bound over the box, or along the segment where it has a directional one
@@ -244,10 +244,13 @@ def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox,
         elif kind == K_OPERATOR:
             k = code[i, 3]
             b = sp - k
-            add = LIPSCHITZ[op] == SUM
             acc = 0.0
-            for j in range(b, sp):
-                acc = acc + vs[j, 0] if add else max(acc, vs[j, 0])
+            if LIPSCHITZ[op] == SUM:
+                for j in range(b, sp):
+                    acc += vs[j, 0]
+            else:
+                for j in range(b, sp):
+                    acc = max(acc, vs[j, 0])
             vs[b, 0] = acc
             sp = b + 1
             i += 1

@@ -27,7 +27,7 @@ def blend_combine(vs, b, k, p, o, mode):
     vs[b, 0] = f
 
 
-@kernel(inline="always")
+@kernel
 def blend_rows(vs, b, k, p, o, nb):
     for j in range(b + 1, b + k):
         for m in range(nb):

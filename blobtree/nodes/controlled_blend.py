@@ -51,7 +51,7 @@ def controlled_combine(vs, b, k, p, o, mode):
     vs[b, 0] = best_f
 
 
-@kernel(inline="always")
+@kernel
 def controlled_rows(vs, b, k, p, o, nb):
     npairs = int(p[o])
     nsingle = int(p[o + 1 + 2 * npairs])

@@ -24,7 +24,7 @@ def difference_combine(vs, b, k, p, o, mode):
         vs[b, 1] = vs[b, 2] = vs[b, 3] = 0.0
 
 
-@kernel(inline="always")
+@kernel
 def difference_rows(vs, b, k, p, o, nb):
     for j in range(b + 1, b + k):
         for m in range(nb):

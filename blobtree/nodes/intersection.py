@@ -20,7 +20,7 @@ def intersection_combine(vs, b, k, p, o, mode):
         kmath.copy_entry(vs, best, b, 1.0)
 
 
-@kernel(inline="always")
+@kernel
 def intersection_rows(vs, b, k, p, o, nb):
     for j in range(b + 1, b + k):
         for m in range(nb):

@@ -44,7 +44,7 @@ def super_combine(vs, b, k, p, o, mode):
     vs[b, 0] = f
 
 
-@kernel(inline="always")
+@kernel
 def super_rows(vs, b, k, p, o, nb):
     n = p[o]
     for m in range(nb):

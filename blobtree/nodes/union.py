@@ -19,7 +19,7 @@ def union_combine(vs, b, k, p, o, mode):
         kmath.copy_entry(vs, best, b, 1.0)
 
 
-@kernel(inline="always")
+@kernel
 def union_rows(vs, b, k, p, o, nb):
     for j in range(b + 1, b + k):
         for m in range(nb):
