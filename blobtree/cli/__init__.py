@@ -2,9 +2,15 @@
 
 from __future__ import annotations
 
+import contextlib
 import gc
 import importlib.abc
 import sys
+from collections.abc import Iterator
+
+from tqdm import tqdm
+
+from ..jit import on_compile
 
 
 class _HideSciPy(importlib.abc.MetaPathFinder):
@@ -42,3 +48,15 @@ def start_command() -> None:
     # The ~70,000 objects numpy and numba create on import live as long as the command: frozen,
     # they are no longer walked by every full collection (numba's target start triggers one).
     gc.freeze()
+
+
+@contextlib.contextmanager
+def compile_notice(quiet: bool = False) -> Iterator[None]:
+    """Say once, when numba starts compiling within the block, that this is a first run."""
+
+    def notice() -> None:
+        if not quiet:  # through tqdm, so a progress bar on screen stays whole
+            tqdm.write("compiling kernels, first run only (about 20-30 s) ...", file=sys.stderr)
+
+    with on_compile(notice):
+        yield

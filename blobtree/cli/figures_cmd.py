@@ -9,6 +9,7 @@ import click
 
 from ..models.figures import FIGURES, TEXTURE_FIGURES
 from ..render import Camera, render, save_image
+from . import compile_notice
 
 ALL = sorted([*FIGURES, *TEXTURE_FIGURES], key=int)
 #: Figures whose models draw random numbers (bumps, canal spine bends, textures).
@@ -42,7 +43,8 @@ def figures(out_dir: Path, height: int, samples: int, shadows: bool, only: tuple
             aspect = fig.aspect(tree)
             width = max(16, round(height * aspect))
             camera = Camera(**fig.camera(tree, aspect=width / height))
-            img = render(tree, width, height, camera=camera, samples=samples, shadows=shadows,
-                         background=(1.0, 1.0, 1.0))
+            with compile_notice():
+                img = render(tree, width, height, camera=camera, samples=samples,
+                             shadows=shadows, background=(1.0, 1.0, 1.0))
             save_image(img, path)
         click.echo(f"figure {key}: {path} ({time.perf_counter() - start:.1f} s)")

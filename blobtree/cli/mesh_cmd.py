@@ -7,7 +7,9 @@ from pathlib import Path
 
 import click
 
+from ..api import polygonize
 from ..mesh.export import FORMATS
+from . import compile_notice
 from .cluster import cluster, cluster_options
 from .scenes import resolve_scene
 
@@ -37,12 +39,10 @@ def mesh(scene: str, output: Path, resolution: int, scheduler: str | None,
         raise click.BadParameter(
             f"extension {output.suffix!r} is not one of {', '.join(FORMATS)}", param_hint="-o"
         )
-    from ..api import polygonize
-
     tree = resolve_scene(scene)
     start = time.perf_counter()
     try:
-        with cluster(scheduler, dask_workers) as client:
+        with cluster(scheduler, dask_workers) as client, compile_notice():
             result = polygonize(tree, resolution=resolution, progress=True, scheduler=client)
     except ValueError as exc:
         raise click.UsageError(str(exc)) from None

@@ -10,6 +10,7 @@ import click
 from ..api import render as render_image
 from ..render import Camera, save_image
 from ..render.camera import default_camera
+from . import compile_notice
 from .cluster import cluster, cluster_options
 from .scenes import resolve_scene, scene_camera
 
@@ -81,7 +82,7 @@ def render(scene, output, size, samples, eye, target, up, fov, no_shadows, backg
                 eye, target = eye or framed.eye, target or framed.target
                 fov = framed.fov if fov is None else fov
             camera = Camera(eye=eye, target=target, up=up, fov=fov)
-        with cluster(scheduler, dask_workers, quiet) as client:
+        with cluster(scheduler, dask_workers, quiet) as client, compile_notice(quiet):
             img = render_image(tree, width, height, camera=camera,
                                samples=samples, shadows=not no_shadows, background=background,
                                tile=tile, progress=not quiet, scheduler=client,

@@ -79,7 +79,9 @@ def polygonize(
     h = _cell_size(lo, hi, resolution, cell_size)
     budget = _available_memory() if max_memory is None else max_memory
     grid = _Grid(lo, hi, h, clip=bounds is not None)
-    with tqdm(total=4, desc="mesh", unit="step", disable=not progress, leave=False) as bar:
+    # the steps are uneven (and the first run compiles in the first): no rate, no estimate
+    with tqdm(total=4, desc="mesh", disable=not progress, leave=False,
+              bar_format="{desc}: {n_fmt}/{total_fmt} steps |{bar}| {elapsed}") as bar:
         boxes = _cull(prog, grid, budget)
         bar.update()
         values, block_origins, cell_start, cells = _sample(prog, grid, boxes)

@@ -15,6 +15,7 @@ from typing import Any
 
 import numba
 import numpy as np
+from tqdm import tqdm
 
 from ..parallel import parallel_for
 from .camera import Camera, default_camera
@@ -94,18 +95,21 @@ def render(tree, width: int, height: int, camera: Camera | None = None,
         done = _local_tiles(prog, camera, lights, settings, rects, threads)
     else:
         done = source(prog, camera, lights, settings, rects)
-    bar = contextlib.nullcontext()
-    if progress:
-        from tqdm import tqdm
-
-        bar = tqdm(total=len(rects), unit="tile", desc="render", leave=False)
-    with bar, contextlib.closing(done):
-        for (x0, y0, x1, y1), pixels in done:
-            img[y0:y1, x0:x1] = pixels
-            if store is not None:
-                store.save((x0, y0, x1, y1), pixels)
-            if progress:
-                bar.update()
+    bar = None
+    try:
+        with contextlib.closing(done):
+            for (x0, y0, x1, y1), pixels in done:
+                img[y0:y1, x0:x1] = pixels
+                if store is not None:
+                    store.save((x0, y0, x1, y1), pixels)
+                if progress and bar is None:  # from the first tile: no estimate from compiling
+                    bar = tqdm(total=len(rects), initial=1, unit="tile", desc="render",
+                               leave=False)
+                elif bar is not None:
+                    bar.update()
+    finally:
+        if bar is not None:
+            bar.close()
     return img
 
 
