@@ -21,6 +21,7 @@ from blobtree.render.checkpoint import Checkpoint
 from blobtree.render.shade import default_lights
 
 distributed = pytest.importorskip("distributed")
+pytestmark = pytest.mark.cluster
 #: the module (``blobtree.render`` is also the name of the function)
 br = importlib.import_module("blobtree.render")
 

@@ -3,17 +3,14 @@
 from __future__ import annotations
 
 import numpy as np
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 
 import blobtree as bt
+from tests.conftest import examples
 from tests.trees import sample_points, trees
 
-SETTINGS = settings(max_examples=60, deadline=None,
-                    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 
-
-@SETTINGS
 @given(trees(), st.integers(0, 2**31))
 def test_engine_equals_reference(tree, seed):
     P = sample_points(tree, 400, seed)
@@ -33,7 +30,6 @@ def _is_sum_free(tree: bt.Node) -> bool:
                    for n in tree.walk())
 
 
-@SETTINGS
 @given(trees(smooth_only=True), st.integers(0, 2**31))
 def test_gradient_matches_finite_differences(tree, seed):
     P = sample_points(tree, 300, seed, grow=0.0)
@@ -54,7 +50,6 @@ def test_gradient_matches_finite_differences(tree, seed):
     np.testing.assert_allclose(g[smooth], g2[smooth], rtol=1e-4, atol=1e-4)
 
 
-@SETTINGS
 @given(trees(), st.integers(0, 2**31))
 def test_bounds_contain_support(tree, seed):
     P = sample_points(tree, 2000, seed, grow=0.5)
@@ -64,7 +59,6 @@ def test_bounds_contain_support(tree, seed):
     assert not np.any((f > 0) & ~inside)
 
 
-@SETTINGS
 @given(trees(max_leaves=3), st.integers(0, 2**31))
 def test_warp_boxes_contain_the_deformed_child(tree, seed):
     """A warp's box is computed from the forward deformation; check it against the child's own
@@ -118,8 +112,7 @@ def test_engine_skips_far_subtrees():
     assert np.all(tree.field(P) == 0.0)
 
 
-@settings(max_examples=15, deadline=None,
-          suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+@examples(0.25)
 @given(trees(), st.integers(0, 2**31))
 def test_specialised_cells_equal_reference(tree, seed):
     """Large batches run per-cell specialised programs (specialize.py): still exact."""
@@ -134,8 +127,7 @@ def test_specialised_cells_equal_reference(tree, seed):
     np.testing.assert_allclose(c[live], cr[live], rtol=1e-9, atol=1e-9)
 
 
-@settings(max_examples=15, deadline=None,
-          suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+@examples(0.25)
 @given(trees(), st.integers(0, 2**31))
 def test_cell_sorted_batches_equal_reference(tree, seed):
     """Large field-only batches are partitioned by cell and vectorised (batch.py): still exact."""
@@ -191,7 +183,6 @@ def test_specialised_program_is_short_for_a_small_cell():
     assert 0 < m < n // 10
 
 
-@SETTINGS
 @given(trees(), st.integers(0, 2**31), st.floats(0.02, 0.6))
 def test_local_lipschitz_bounds_hold_on_random_trees(tree, seed, frac):
     """The distance-aware bounds (through warps too) bound |grad f| over every box."""
@@ -209,7 +200,6 @@ def test_local_lipschitz_bounds_hold_on_random_trees(tree, seed, frac):
         assert g.max() <= lip * (1 + 1e-9) + 1e-12
 
 
-@SETTINGS
 @given(trees(), st.integers(0, 2**31), st.floats(0.02, 1.0))
 def test_segment_lipschitz_bounds_hold_on_random_trees(tree, seed, frac):
     """The bound along a segment (directional for point primitives) bounds |grad f . d| on it."""
@@ -233,7 +223,6 @@ def test_segment_lipschitz_bounds_hold_on_random_trees(tree, seed, frac):
         assert slope.max() <= bound * (1 + 1e-9) + 1e-12
 
 
-@SETTINGS
 @given(st.sampled_from(["soft_object", "cubic"]), st.floats(0.3, 3.0), st.integers(0, 2**31))
 def test_point_directional_bound_is_the_largest_slope(falloff, radius, seed):
     """For a lone (scaled, rotated) point primitive the segment bound is |df/dt|'s maximum along

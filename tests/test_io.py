@@ -6,16 +6,17 @@ import json
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 
 import blobtree as bt
 from blobtree.io import SceneError, dumps, loads
 from blobtree.texture import HelicoSurface
+from tests.conftest import examples
 from tests.trees import sample_points, trees
 
 
-@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@examples(0.7)
 @given(trees(), st.integers(0, 2**31))
 def test_round_trip_is_exact(tree, seed):
     text = dumps(tree)

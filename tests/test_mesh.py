@@ -8,13 +8,14 @@ import numpy as np
 import pytest
 import trimesh
 from click.testing import CliRunner
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 
 import blobtree as bt
 from blobtree.cli.mesh_cmd import mesh as mesh_cmd
 from blobtree.mesh import Mesh, polygonize
 from blobtree.mesh._kernels import block_triangles
+from tests.conftest import examples
 from tests.trees import trees
 
 
@@ -58,7 +59,7 @@ def assert_spheres(m: Mesh, count: int) -> None:
 # --- the kernel on arbitrary lattice values ---------------------------------------------------
 
 
-@settings(max_examples=40, deadline=None)
+@examples(0.7)
 @given(st.integers(0, 2**32 - 1), st.booleans())
 def test_kernel_is_watertight_on_noise(seed, quantized):
     """Random samples (every ambiguous face and cell case; exact iso values when quantized)."""
@@ -142,7 +143,7 @@ def test_warped_primitives():
     assert_spheres(polygonize(tree, resolution=48), 1)
 
 
-@settings(max_examples=10, deadline=None)
+@examples(0.17)
 @given(st.tuples(*[st.floats(0.0, 1.0)] * 3))
 def test_thin_spine_two_cells_wide_stays_one_piece(offset):
     """A skewed segment whose visible diameter is 2.2 cells, at any offset to the lattice."""
@@ -176,7 +177,7 @@ def test_empty_solid_gives_an_empty_mesh():
     assert len(m.faces) == 0 and len(m.vertices) == 0
 
 
-@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@examples(0.25)
 @given(trees(max_leaves=5))
 def test_random_trees_mesh_closed(tree):
     m = polygonize(tree, resolution=24)

@@ -12,6 +12,8 @@ import blobtree as bt
 from blobtree.models.helico import helico_spiral
 from blobtree.nodes import Bend
 
+pytestmark = pytest.mark.slow  # builds the full shell
+
 # the module, not the murex() function a package export may shadow it with
 M = importlib.import_module("blobtree.models.murex")
 ISO = 0.5

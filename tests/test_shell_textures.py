@@ -12,6 +12,8 @@ from blobtree.models import figures as F
 from blobtree.models import shell_textures as ST
 from blobtree.nodes import Color, ControlledBlend, Texture
 
+pytestmark = pytest.mark.slow  # builds the full shell
+
 M = importlib.import_module("blobtree.models.murex")
 
 MAKERS = [t.make for t in ST.SHELL_TEXTURES.values()]

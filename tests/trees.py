@@ -1,129 +1,80 @@
-"""Hypothesis strategies for random BlobTrees built from every node type."""
+"""Hypothesis strategies for random BlobTrees, derived from the node registry.
+
+Every registered node type gets a strategy built from its declared parameters: each parameter
+kind (``blobtree.nodes.params``) says how to draw a value (its ``sample`` range), children come
+from the recursive tree strategy within the type's ``ARITY``, and a draw the type's own checks
+refuse (a zero-length cone, a bend tighter than its child) is rejected.  A new node type is
+therefore in the generated trees with no code here; ``test_registry.py`` checks that it is.
+"""
 
 from __future__ import annotations
 
 import numpy as np
+from hypothesis import reject
 from hypothesis import strategies as st
 
 import blobtree as bt
+from blobtree.nodes import params as K
 from blobtree.spiral import HelicoSpiral
 from blobtree.texture import HelicoSurface
 
-coord = st.floats(-1.0, 1.0, allow_nan=False)
-vec = st.tuples(coord, coord, coord)
-radius = st.floats(0.3, 1.2)
-falloff = st.sampled_from(["soft_object", "cubic"])
+#: The one bounding-surface mapping the generated trees use (cheap: few steps, two whorls).
+HELICO = HelicoSurface(spiral=HelicoSpiral(r0=0.3), radius_factor=1.0, theta_max=720.0,
+                       max_steps=8)
 
 
-@st.composite
-def point(draw):
-    return bt.Point(radius=draw(radius), center=draw(vec), falloff=draw(falloff))
+def value(kind: K.Kind, children: int) -> st.SearchStrategy:
+    """A strategy for one parameter of this kind (``children``: how many the node has)."""
+    if isinstance(kind, K.Number):
+        return st.floats(*kind.sample)
+    if isinstance(kind, K.Vec3):  # and RGB
+        return st.tuples(*[st.floats(*kind.sample)] * 3)
+    if isinstance(kind, K.Choice):
+        return st.sampled_from(kind.options)
+    if isinstance(kind, K.Axis):
+        return st.sampled_from(["x", "y", "z", (1.0, 2.0, -0.5)])
+    if isinstance(kind, K.Pairs):
+        pair = st.tuples(st.integers(0, children - 1), st.integers(0, children - 1))
+        return st.lists(pair.filter(lambda p: p[0] != p[1]), min_size=1, max_size=3)
+    if isinstance(kind, K.Image):
+        return st.integers(0, 99).map(lambda seed: np.random.default_rng(seed).integers(
+            0, 256, (3, 5, 3)).astype(np.uint8))
+    if isinstance(kind, K.Mapping):
+        return st.sampled_from(["primitive", HELICO])
+    raise TypeError(f"no strategy for parameter kind {type(kind).__name__}: add one here")
 
 
-@st.composite
-def segment(draw):
-    a = np.array(draw(vec))
-    b = a + np.array(draw(vec)) + 0.1
-    return bt.Segment(a, b, radius=draw(radius), falloff=draw(falloff))
-
-
-@st.composite
-def cone(draw):
-    a = np.array(draw(vec))
-    b = a + np.array(draw(vec)) + 0.1
-    return bt.Cone(a, b, radius_a=draw(radius), radius_b=draw(radius), falloff=draw(falloff))
-
-
-@st.composite
-def torus(draw):
-    return bt.Torus(major_radius=draw(st.floats(0.2, 1.0)), radius=draw(radius),
-                    center=draw(vec), falloff=draw(falloff))
-
-
-@st.composite
-def disc(draw):
-    return bt.Disc(disc_radius=draw(st.floats(0.2, 1.0)), radius=draw(radius), center=draw(vec))
-
-
-@st.composite
-def cylinder(draw):
-    a = np.array(draw(vec))
-    b = a + np.array(draw(vec)) + 0.1
-    return bt.Cylinder(a, b, cylinder_radius=draw(st.floats(0.1, 0.6)), radius=draw(radius))
-
-
-primitives = st.one_of(point(), segment(), cone(), torus(), disc(), cylinder())
-
-
-def _nary(children, smooth_only):
-    names = ["blend", "super_blend"]
-    if not smooth_only:
-        names += ["union", "intersection", "difference", "controlled_blend"]
+def node_of(cls: type[bt.Node], children: st.SearchStrategy | None) -> st.SearchStrategy:
+    """Nodes of one registered type, children drawn from ``children``."""
+    lo, hi = cls.ARITY
 
     @st.composite
-    def make(d):
-        cs = d(st.lists(children, min_size=2, max_size=4))
-        name = d(st.sampled_from(names))
-        if name == "super_blend":
-            return bt.super_blend(*cs, n=d(st.sampled_from([1.0, 2.0, 7.5, 400.0])))
-        if name == "controlled_blend":
-            return bt.controlled_blend(cs, pairs=[(0, 1)])
-        return getattr(bt, name)(*cs)
+    def make(draw):
+        kids = []
+        if hi != 0:
+            n = draw(st.integers(max(lo, 2 if hi is None else lo), min(hi or 4, 4)))
+            kids = [draw(children) for _ in range(n)]
+        values = {p.name: draw(value(p.kind, len(kids))) for p in cls.PARAMS}
+        try:
+            return cls(*kids, **values)
+        except ValueError:
+            reject()
 
     return make()
 
 
-def _unary(children):
-    @st.composite
-    def make(d):
-        c = d(children)
-        kind = d(st.sampled_from(["translate", "scale", "scale3", "rotate", "bend", "twist",
-                                  "taper", "color", "texture"]))
-        if kind == "translate":
-            return c.translate(*d(vec))
-        if kind == "scale":
-            return c.scale(d(st.floats(0.5, 2.0)))
-        if kind == "scale3":
-            return c.scale(*d(st.tuples(*[st.floats(0.5, 2.0)] * 3)))
-        if kind == "rotate":
-            return c.rotate(d(st.sampled_from(["x", "y", "z", (1.0, 2.0, -0.5)])),
-                            d(st.floats(-180, 180)))
-        if kind == "bend":
-            lo, hi = c.bounds()
-            toward = d(st.sampled_from(["x", "y", "z"]))
-            axis = d(st.sampled_from([a for a in "xyz" if a != toward]))
-            reach = max(hi["xyz".index(toward)], -lo["xyz".index(toward)], 0.1)
-            length = d(st.floats(0.5, 2.0))
-            max_deg = np.degrees(length / (reach * 1.5))
-            deg = d(st.floats(5.0, float(min(90.0, max_deg)))) * d(st.sampled_from([1, -1]))
-            return c.bend(deg, length, axis=axis, toward=toward)
-        if kind == "twist":
-            return c.twist(d(st.floats(-90, 90)), axis=d(st.sampled_from(["x", "y", "z"])))
-        if kind == "taper":
-            axis = d(st.sampled_from(["x", "y", "z"]))
-            lo, hi = c.bounds()
-            ext = max(abs(lo["xyz".index(axis)]), abs(hi["xyz".index(axis)]), 0.1)
-            return c.taper(d(st.floats(-0.5, 0.5)) / ext, axis=axis)
-        if kind == "texture":
-            img = np.random.default_rng(d(st.integers(0, 99))).integers(0, 256, (3, 5, 3))
-            mapping = d(st.sampled_from(["primitive", "helico"]))
-            if mapping == "helico":
-                mapping = HelicoSurface(spiral=HelicoSpiral(r0=0.3), radius_factor=1.0,
-                                        theta_max=720.0, max_steps=8)
-            return c.texture(img.astype(np.uint8), mapping=mapping,
-                             wrap=d(st.sampled_from(["repeat", "clamp"])))
-        return c.color(d(st.tuples(*[st.floats(0.0, 1.0)] * 3)))
-
-    return make()
+def _kinds(*kinds: str, smooth_only: bool = False) -> list[type[bt.Node]]:
+    return [c for c in bt.nodes.REGISTRY.values() if c.KIND in kinds
+            and not (smooth_only and c.KIND == "operator" and not c.SMOOTH)]
 
 
-def trees(smooth_only: bool = False, max_leaves: int = 8):
-    """Random trees; ``smooth_only`` leaves out the CSG operators (whose gradients jump)."""
-    return st.recursive(
-        primitives,
-        lambda children: st.one_of(_nary(children, smooth_only), _unary(children)),
-        max_leaves=max_leaves,
-    )
+def trees(smooth_only: bool = False, max_leaves: int = 8) -> st.SearchStrategy:
+    """Random trees of every registered type; ``smooth_only`` leaves out the operators whose
+    gradient jumps (``Operator.SMOOTH`` False: the CSG operators, the controlled blend)."""
+    leaves = st.one_of([node_of(c, None) for c in _kinds("primitive")])
+    inner = _kinds("operator", "affine", "warp", "paint", smooth_only=smooth_only)
+    return st.recursive(leaves, lambda kids: st.one_of([node_of(c, kids) for c in inner]),
+                        max_leaves=max_leaves)
 
 
 def sample_points(tree: bt.Node, n: int, seed: int, grow: float = 0.2) -> np.ndarray:

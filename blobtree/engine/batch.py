@@ -15,8 +15,6 @@ evaluate the subtree exactly (a node's field is 0 outside its box), so the resul
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
 from ..jit import kernel
@@ -35,10 +33,7 @@ from .dispatch import (
     prim_rows,
 )
 from .interp import apply_warp, outside
-from .specialize import cell_of
-
-if TYPE_CHECKING:
-    from .program import Grid
+from .specialize import Grid, cell_of
 
 #: Points per batch (the length of a value-stack row).
 SUB = 64

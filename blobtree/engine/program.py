@@ -46,6 +46,7 @@ from .dispatch import (
     STACK,
     opcode,
 )
+from .specialize import Grid
 
 #: Batches at least this large run through the grid of specialised programs.
 GRID_MIN_POINTS = 20_000
@@ -59,29 +60,6 @@ GROUP = 4
 
 #: Largest program a tree may expand to (a shared subtree is repeated at each of its places).
 MAX_INSTRUCTIONS = 20_000_000
-
-
-@dataclass
-class Grid:
-    """Per-cell specialised programs (see specialize.py): cell c runs rows start[c]:start[c+1]."""
-
-    start: np.ndarray
-    code: np.ndarray
-    boxes: np.ndarray
-    lips: np.ndarray
-    lo: np.ndarray
-    size: np.ndarray
-    dims: np.ndarray
-
-    @property
-    def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(start, code, boxes) for ``specialize.eval_point_grid``."""
-        return self.start, self.code, self.boxes
-
-    @property
-    def frame(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(lo, size, dims) of the grid."""
-        return self.lo, self.size, self.dims
 
 
 @dataclass
@@ -249,7 +227,7 @@ class _Emitter:
             boxes = [self.emit(c, M, look) for c in children]
             self.add(op, extra, count=len(children))
             return geo.box_union(boxes)
-        centres = np.array([0.5 * (b[0] + b[1]) for b in (c._box(M) for c in children)])
+        centres = np.array([0.5 * (b[0] + b[1]) for b in (c.box(M) for c in children)])
         centres = np.nan_to_num(centres, nan=0.0, posinf=0.0, neginf=0.0)
         axis = int(np.argmax(centres.max(axis=0) - centres.min(axis=0)))
         order = np.argsort(centres[:, axis], kind="stable")
@@ -265,7 +243,7 @@ class _Emitter:
 
     def primitive(self, node: Primitive, M: np.ndarray, look: int) -> geo.Box:
         inv = geo.invert(M)
-        box = node._box(M)
+        box = node.box(M)
         header = [*inv.reshape(-1), node.field_radius, FALLOFFS[node.falloff]]
         lip = node.lipschitz() * geo.spectral_norm(inv[:, :3])
         self.add(opcode(node), header + node.pack(), box, count=look, lip=lip)
@@ -273,7 +251,7 @@ class _Emitter:
 
     def warp(self, node: Warp, M: np.ndarray, look: int) -> geo.Box:
         inv = geo.invert(M)
-        box = node._box(M)
+        box = node.box(M)
         push = self.add(OP_PUSHPT, inv.reshape(-1), box,
                         lip=node.lipschitz() * geo.spectral_norm(inv[:, :3]))
         w = self.add(opcode(node), [*node.canonical.reshape(-1), *node.pack()], node.own_box,

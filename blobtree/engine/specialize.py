@@ -17,6 +17,8 @@ for the 126-blob whorl a point then meets ~8 instructions instead of ~26.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..jit import kernel
@@ -171,6 +173,29 @@ def specialize(code, boxes, lips, lo, hi, oc, ob, ol, work):
                 f_kept[top] += 1
             f_first[top] = 0
     return n
+
+
+@dataclass
+class Grid:
+    """Per-cell specialised programs (see specialize.py): cell c runs rows start[c]:start[c+1]."""
+
+    start: np.ndarray
+    code: np.ndarray
+    boxes: np.ndarray
+    lips: np.ndarray
+    lo: np.ndarray
+    size: np.ndarray
+    dims: np.ndarray
+
+    @property
+    def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(start, code, boxes) for ``specialize.eval_point_grid``."""
+        return self.start, self.code, self.boxes
+
+    @property
+    def frame(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(lo, size, dims) of the grid."""
+        return self.lo, self.size, self.dims
 
 
 @kernel

@@ -23,6 +23,7 @@ from .cone import Cone, Segment
 from .controlled_blend import ControlledBlend, controlled_blend
 from .cylinder import Cylinder
 from .difference import Difference, difference
+from .ellipsoid import Ellipsoid
 from .intersection import Intersection, intersection
 from .point import Point
 from .ring import Disc, Torus
@@ -37,9 +38,9 @@ from .warp import Warp
 NODE_TYPES = REGISTRY
 
 __all__ = [
-    "ISO", "NODE_TYPES", "REGISTRY", "Affine", "Bend", "Blend", "Color", "Cone",
-    "ControlledBlend", "Cylinder", "Difference", "Disc", "Intersection", "Node", "Operator",
-    "Paint", "Point", "Primitive", "Rotate", "Scale", "Segment", "SuperBlend", "Taper",
-    "Texture", "Torus", "Translate", "Twist", "Unary", "Union", "Warp", "blend", "check_points",
+    "Affine", "Bend", "Blend", "Color", "Cone", "ControlledBlend", "Cylinder", "Difference", "Disc",
+    "Ellipsoid", "ISO", "Intersection", "NODE_TYPES", "Node", "Operator", "Paint", "Point",
+    "Primitive", "REGISTRY", "Rotate", "Scale", "Segment", "SuperBlend", "Taper", "Texture",
+    "Torus", "Translate", "Twist", "Unary", "Union", "Warp", "blend", "check_points",
     "controlled_blend", "difference", "intersection", "super_blend", "union",
 ]

@@ -8,7 +8,8 @@ class declares
   kinds, defaults; the constructor, validation, ``params()``, ``replace()``, the scene schema and
   the test strategies derive from them) and ``ARITY`` (how many children);
 * its reference maths in plain numpy: ``_ref(P, look) -> (field, gradient, colour)`` (the oracle
-  the compiled engine is held equal to), its bounds ``_box(L)`` and its Lipschitz bound;
+  the compiled engine is held equal to), its bounds ``_box(L)`` and its Lipschitz bound
+  ``_lipschitz()``;
 * its compiled kernels (``KERNELS``, numba functions written once with named parameter offsets,
   see ``Layout``) and how the compiler packs its parameters; operators also declare what a zero
   child does, how their Lipschitz bounds combine and their stack use.
@@ -340,9 +341,26 @@ class Node:
         """Conservative AABB of the support, seen through the affine map L (node -> frame)."""
         raise NotImplementedError
 
-    def lipschitz(self) -> float:
+    def _lipschitz(self) -> float:
         """A global bound on |grad f|."""
         raise NotImplementedError
+
+    def box(self, L: np.ndarray) -> geo.Box:
+        """:meth:`_box`, computed once per frame (a shared subtree is not walked again)."""
+        memo = self.__dict__.setdefault("_box_memo", {})
+        key = L.tobytes()
+        if key not in memo:
+            lo, hi = self._box(L)
+            memo[key] = (np.array(lo, dtype=float), np.array(hi, dtype=float))
+            for a in memo[key]:
+                a.setflags(write=False)
+        return memo[key]
+
+    def lipschitz(self) -> float:
+        """A global bound on |grad f| (computed once)."""
+        if "_lipschitz_memo" not in self.__dict__:
+            self.__dict__["_lipschitz_memo"] = float(self._lipschitz())
+        return self.__dict__["_lipschitz_memo"]
 
     # ----- evaluation -------------------------------------------------------------------------
     def bounds(self) -> geo.Box:
@@ -352,7 +370,7 @@ class Node:
 
     @cached_property
     def _bounds(self) -> geo.Box:
-        return self._box(geo.IDENTITY)
+        return self.box(geo.IDENTITY)
 
     def program(self) -> Any:
         """The compiled program of this tree (compiled once: the tree cannot change)."""
@@ -468,7 +486,7 @@ class Primitive(Node):
         texturing, the paper's ref. [10])."""
         raise NotImplementedError
 
-    def lipschitz(self) -> float:
+    def _lipschitz(self) -> float:
         return SLOPE[self.falloff] / self.field_radius
 
 
@@ -486,8 +504,10 @@ class Operator(Node):
     Declares ``ZERO_FIRST`` / ``ZERO_REST`` (what a zero first / later child does under
     specialisation, see :data:`ZERO_RULES`), ``LIPSCHITZ`` (:data:`LIPSCHITZ_RULES`),
     ``ASSOCIATIVE`` (the compiler may regroup its children into a box hierarchy),
-    ``IDEMPOTENT`` (a child repeated verbatim may be evaluated once) and ``STACK`` (value-stack
-    rows it needs beyond its children's, usually 0).
+    ``IDEMPOTENT`` (a child repeated verbatim may be evaluated once), ``STACK`` (value-stack
+    rows it needs beyond its children's, usually 0) and ``SMOOTH`` (its gradient is continuous
+    where its children's are).  An operator of one child must be that child (specialisation
+    relies on it).
     """
 
     KIND = "operator"
@@ -498,6 +518,7 @@ class Operator(Node):
     ASSOCIATIVE: ClassVar[bool] = False
     IDEMPOTENT: ClassVar[bool] = False
     STACK: ClassVar[int] = 0
+    SMOOTH: ClassVar[bool] = False
 
     def op_params(self) -> list[float]:
         """The operator's parameters in the program (empty by default)."""
@@ -514,9 +535,9 @@ class Operator(Node):
         return geo.box_union(boxes)
 
     def _box(self, L):
-        return self.combine_boxes([c._box(L) for c in self.children])
+        return self.combine_boxes([c.box(L) for c in self.children])
 
-    def lipschitz(self):
+    def _lipschitz(self):
         bounds = [c.lipschitz() for c in self.children]
         return float(sum(bounds) if self.LIPSCHITZ == "sum" else max(bounds))
 
@@ -544,9 +565,9 @@ class Unary(Node):
         return self.children[0]
 
     def _box(self, L):
-        return self.child._box(L)
+        return self.child.box(L)
 
-    def lipschitz(self):
+    def _lipschitz(self):
         return self.child.lipschitz()
 
 
@@ -570,9 +591,9 @@ class Affine(Unary):
         return f, g @ inv[:, :3], c
 
     def _box(self, L):
-        return self.child._box(geo.compose(L, self.matrix))
+        return self.child.box(geo.compose(L, self.matrix))
 
-    def lipschitz(self):
+    def _lipschitz(self):
         return self.child.lipschitz() * geo.spectral_norm(self.inverse[:, :3])
 
 

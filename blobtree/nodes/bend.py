@@ -14,6 +14,9 @@ from .params import AXES, Number, Param, positive
 from .warp import PERM_END, Warp
 
 LAYOUT = Layout(PERM_END, k=1, length=1)
+#: The smallest bend, in degrees: below it the circle's centre is so far away that its maths
+#: loses all precision (and the bend does nothing visible).
+MIN_DEGREES = 1e-3
 K, LENGTH = LAYOUT.offsets
 
 
@@ -55,9 +58,9 @@ class Bend(Warp):
     KERNELS = WarpKernels(map=bend_map)
 
     def _check(self):
-        if self.degrees == 0.0:
-            raise ValueError(f"degrees must be non-zero and within [-180, 180], got "
-                             f"{self.degrees!r}")
+        if abs(self.degrees) < MIN_DEGREES:
+            raise ValueError(f"degrees must be at least {MIN_DEGREES} in magnitude (and within "
+                             f"[-180, 180]), got {self.degrees!r}")
         if self.axis == self.toward:
             raise ValueError(f"axis and toward must differ, got {self.axis!r} twice")
         if self.y_hi >= 1.0 / self.k:

@@ -40,6 +40,7 @@ class Blend(Operator):
 
     TYPE = "blend"
     ASSOCIATIVE = True
+    SMOOTH = True
     KERNELS = OperatorKernels(combine=blend_combine, rows=blend_rows)
 
     def _ref(self, P, look=None):

@@ -139,7 +139,7 @@ class Cone(Primitive):
             ends.append((c - h, c + h))
         return geo.box_union(ends)
 
-    def lipschitz(self):
+    def _lipschitz(self):
         # |grad (r / R(t))| <= (1 + |R_b - R_a| / |b - a|) / min R
         slope = abs(self.radius_b - self.radius_a) / np.linalg.norm(self.b - self.a)
         return SLOPE[self.falloff] * (1.0 + slope) / min(self.radius_a, self.radius_b)

@@ -70,6 +70,7 @@ class SuperBlend(Operator):
     PARAMS = (Param("n", Number(lo=1.0, hi=LARGEST_N, sample=(1.0, 400.0)), 2.0,
                     "exponent: 1 = blend, large = union"),)
     ASSOCIATIVE = True
+    SMOOTH = True
     KERNELS = OperatorKernels(combine=super_combine, rows=super_rows)
 
     def op_params(self):

@@ -35,7 +35,7 @@ class Taper(AxialWarp):
     TYPE = "taper"
     METHOD = "taper"
     PARAMS = (
-        Param("rate", Number(sample=(-0.5, 0.5))),
+        Param("rate", Number(sample=(-0.25, 0.25))),
         Param("axis", AXES, "y"),
     )
     LAYOUT = LAYOUT

@@ -44,7 +44,7 @@ class Warp(Unary):
 
     @cached_property
     def child_box(self) -> geo.Box:
-        lo, hi = self.child._box(geo.IDENTITY)
+        lo, hi = self.child.box(geo.IDENTITY)
         if geo.is_empty((lo, hi)):
             return np.zeros(3), np.zeros(3)
         return lo, hi
@@ -52,7 +52,7 @@ class Warp(Unary):
     @cached_property
     def own_box(self) -> geo.Box:
         """The box of the deformed child (empty when the child's support is empty)."""
-        if geo.is_empty(self.child._box(geo.IDENTITY)):
+        if geo.is_empty(self.child.box(geo.IDENTITY)):
             return geo.empty_box()
         return self._deformed_box()
 
@@ -81,7 +81,7 @@ class Warp(Unary):
     def _box(self, L):
         return geo.transform_box(L, self.own_box)
 
-    def lipschitz(self):
+    def _lipschitz(self):
         return self.child.lipschitz() * self.stretch
 
 

@@ -1,0 +1,29 @@
+"""Shared test set-up: hypothesis profiles and the markers that tier the suite.
+
+Profiles (``HYPOTHESIS_PROFILE=<name> python -m pytest``): ``ci`` (the default, what CI runs),
+``quick`` (a few examples per property, for a fast local loop) and ``thorough`` (many, before a
+release or after touching the engine).  A test that needs a different number of examples than
+the profile gives scales it with :func:`examples`.
+
+Markers: ``slow`` (seconds each: the full shell, large meshes) and ``cluster`` (starts Dask
+workers).  CI runs everything; ``-m "not slow and not cluster"`` is the quick local loop.
+"""
+
+from __future__ import annotations
+
+import os
+
+from hypothesis import HealthCheck, settings
+
+_COMMON = dict(deadline=None, suppress_health_check=[HealthCheck.too_slow,
+                                                     HealthCheck.data_too_large,
+                                                     HealthCheck.filter_too_much])
+settings.register_profile("ci", max_examples=60, **_COMMON)
+settings.register_profile("quick", max_examples=12, **_COMMON)
+settings.register_profile("thorough", max_examples=500, **_COMMON)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
+
+
+def examples(fraction: float) -> settings:
+    """Settings with ``fraction`` of the profile's examples (at least 3), for costly properties."""
+    return settings(max_examples=max(3, round(settings.default.max_examples * fraction)))
