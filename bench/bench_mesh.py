@@ -28,7 +28,7 @@ from blobtree.mesh import Mesh, polygonize
 
 
 def whorl_spheres() -> tuple[np.ndarray, np.ndarray]:
-    """Centres and field radii of the 126 points of whorl126 (DESIGN.md)."""
+    """Centres and field radii of the 126 points of whorl126 (docs/conventions.md)."""
     theta = np.arange(126) * 116.0 / 6.0
     r = 0.2 * 1.3 ** (theta / 360.0)
     h = r / math.tan(math.radians(22.5))

@@ -31,6 +31,7 @@ def test_every_node_type_round_trips(tmp_path):
     parts = [
         a, bt.Segment((0, 0, 0), (1, 0, 0), 0.5), bt.Cone((0, 0, 0), (1, 0, 0), 0.5, 0.2),
         bt.Torus(1.0, 0.3), bt.Disc(1.0, 0.3), bt.Cylinder((0, 0, 0), (0, 1, 0), 0.3, 0.2),
+        bt.Ellipsoid((1.0, 0.5, 0.7), (0.1, 0, 0)),
     ]
     tree = bt.union(
         bt.blend(*parts), bt.super_blend(a, a.translate(1, 0, 0), n=400),
@@ -46,6 +47,28 @@ def test_every_node_type_round_trips(tmp_path):
     bt.save(tree, path)
     back = bt.load(path)
     assert dumps(back) == dumps(tree)
+
+
+def _nested(node, images):
+    """A node as version 1 nests it: children inside their parent."""
+    out = {"type": node.TYPE, "params": node.params(images)}
+    if node.children:
+        out["children"] = [_nested(c, images) for c in node.children]
+    return out
+
+
+@examples(0.3)
+@given(trees(max_leaves=6))
+def test_version_1_files_still_load(tree):
+    from blobtree.texture import image_to_text
+
+    images = {}
+    root = _nested(tree, images)
+    doc = {"format": "blobtree-scene", "version": 1, "root": root}
+    if images:
+        doc["images"] = {k: image_to_text(v) for k, v in images.items()}
+    assert loads(json.dumps(doc)) == tree
+    assert json.loads(dumps(tree))["version"] == 2
 
 
 def _doc(root):

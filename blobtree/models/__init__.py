@@ -1,5 +1,5 @@
-"""Built-in models: the DESIGN.md yardstick ``whorl126``, the paper's Murex cabritii shell and
-the models of the paper's figures."""
+"""Built-in models: the yardstick ``whorl126`` (docs/conventions.md), the paper's Murex cabritii
+shell and the models of the paper's figures."""
 
 from .figures import FIGURES
 from .helico import MUREX_SPIRAL, HelicoSpiral, helico_spiral, place

@@ -1,4 +1,4 @@
-"""whorl126: the common benchmark scene of DESIGN.md."""
+"""whorl126: the common benchmark scene (docs/conventions.md)."""
 
 from __future__ import annotations
 
@@ -11,5 +11,5 @@ THETA_S = 116.0 / 6.0
 
 def whorl126() -> Node:
     """126 instances of a point of visible radius 1 (field radius 2) placed by Eq. 8 at
-    theta = i * 116/6 degrees, i = 0..125, all combined by plain blend (DESIGN.md)."""
+    theta = i * 116/6 degrees, i = 0..125, all combined by plain blend (docs/conventions.md)."""
     return Blend(*(place(Point(radius=2.0), i * THETA_S) for i in range(126)))

@@ -12,12 +12,7 @@ from .base import Node, Operator, OperatorKernels, pick, register
 
 @kernel
 def intersection_combine(vs, b, k, p, o, mode):
-    best = b
-    for j in range(b + 1, b + k):
-        if vs[j, 0] < vs[best, 0]:
-            best = j
-    if best != b:
-        kmath.copy_entry(vs, best, b, 1.0)
+    kmath.select(vs, b, k, False)
 
 
 @kernel

@@ -148,6 +148,18 @@ def squared(dx, dy, dz, radius):
 
 
 @kernel
+def select(vs, b, k, largest):
+    """The child with the largest (or smallest) field among value-stack rows b .. b + k - 1
+    becomes row b: union and intersection."""
+    best = b
+    for j in range(b + 1, b + k):
+        if (vs[j, 0] > vs[best, 0]) if largest else (vs[j, 0] < vs[best, 0]):
+            best = j
+    if best != b:
+        copy_entry(vs, best, b, 1.0)
+
+
+@kernel
 def copy_entry(vs, src, dst, sign):
     """Value-stack row src into row dst; sign -1 stores 1 - f and the negated gradient."""
     vs[dst, 0] = vs[src, 0] if sign > 0 else 1.0 - vs[src, 0]
