@@ -28,13 +28,13 @@ def main() -> None:
 @main.command()
 @click.argument("scene")
 def info(scene: str) -> None:
-    """Node counts by type, bounds and program length of SCENE."""
+    """Node counts by type (each shared subtree once), bounds and program length of SCENE."""
     tree: Node = resolve_scene(scene)
-    counts = Counter(n.TYPE for n in tree.walk())
+    counts = Counter(n.TYPE for n in tree.unique())
     prog = tree.program()
     lo, hi = prog.bounds
     click.echo(f"scene: {scene}")
-    click.echo(f"nodes: {sum(counts.values())}")
+    click.echo(f"nodes: {sum(counts.values())} distinct")
     for name, n in sorted(counts.items(), key=lambda kv: (-kv[1], kv[0])):
         click.echo(f"  {name:<18}{n:>8}")
     np.set_printoptions(precision=4, suppress=True)
