@@ -36,7 +36,6 @@ _ENDS = [sum(1 for c in TYPES if _KIND_OF[c.KIND] <= k) for k in range(4)]
 PRIMITIVE_END, OPERATOR_END, WARP_END, PAINT_END = _ENDS
 # ----- the program's own instructions, after the node types' --------------------------------
 OP_BOX, OP_PUSHPT, OP_POPPT, OP_ZERO = range(PAINT_END, PAINT_END + 4)
-NAMES = [cls.TYPE for cls in TYPES] + ["BOX", "PUSHPT", "POPPT", "ZERO"]
 
 #: The kind of each opcode (for Python; kernels call :func:`kind_of`).
 KIND = np.array([_KIND_OF[c.KIND] for c in TYPES] + [K_BOX, K_PUSHPT, K_POPPT, K_ZERO],
