@@ -142,14 +142,16 @@ class HelicoSurface:
     """A bounding surface for :class:`Texture`: a tube of radius ``radius_factor * D(theta)``
     around a helico-spiral (Eqs. 1-3), for the shell's body whorl (Section 3.4).
 
-    u = theta / u_period (one texture copy per section: 116 degrees in the paper, so the
-    joins fall under the varices), v = angle around the tube in the generating plane.
+    u = (theta - u_start) / u_period (one texture copy per section: 116 degrees in the paper,
+    starting at a join between sections, so the texture's seams fall under the varices), v =
+    angle around the tube in the generating plane.
     A point moves by steps of ``step * D`` along (gradient_weight * outward field gradient +
     (1 - gradient_weight) * normal of S) until it reaches S.
     """
 
     spiral: HelicoSpiral = HelicoSpiral(d_ratio=0.341)
     u_period: float = 116.0
+    u_start: float = 0.0
     radius_factor: float = 1.5
     gradient_weight: float = 0.5
     theta_max: float = 2520.0
@@ -158,6 +160,7 @@ class HelicoSurface:
 
     def __post_init__(self) -> None:
         geo.check_positive("u_period", self.u_period)
+        geo.check_finite("u_start", self.u_start)
         geo.check_positive("radius_factor", self.radius_factor)
         geo.check_positive("theta_max", self.theta_max)
         geo.check_positive("step", self.step)
@@ -220,7 +223,7 @@ class HelicoSurface:
             step = step / np.where(sn > 0.0, sn, 1.0)
             q = q + np.where(moving[:, None], self.step * d[:, None] * step, 0.0)
         theta, dr, dy, _, _ = self.locate(q)
-        return theta / self.u_period, turn(dy, dr)
+        return (theta - self.u_start) / self.u_period, turn(dy, dr)
 
 
 def parse_mapping(mapping: Any) -> str | HelicoSurface:

@@ -70,7 +70,7 @@ INSTANCES_PER_SECTION = 6  #: six instances of the generating surface per sectio
 # theta_s = 116/6 deg (Eq. 9) is THETA_S, shared with the whorl126 yardstick.
 SECTIONS = 3 * WHORLS  #: 21 sections (Eq. 10),
 INSTANCES = SECTIONS * INSTANCES_PER_SECTION  #: 126 instances, 0..125.
-VARICES = SECTIONS  #: one varix at the end of every section.
+VARICES = SECTIONS  #: one varix at the end of every section, over the join with the next.
 CANAL_SECTIONS = 4  #: the canal only in the last 1 1/3 whorls (Section 3.1).
 SPINE_BEND = 30.0  #: curving spines: cones bent by 30 deg (Section 3.2).
 DELTA_MAX = max(d for rows in TABLE_1.values() for _, d in rows)  #: delta_max of Eq. 12.
@@ -92,13 +92,14 @@ COLOURS = {
 }
 
 #: Section 3.4: the bounding surface of texture (a), a tube around the spiral with one texture copy
-#: per 116 deg section.  The body's tube has radius 1.04-1.16 D (six points of radius 1.8 D per
+#: per 116 deg section, each copy starting at a join between sections (half an instance step
+#: before the section's first instance), so that its seams lie under the varices.  The body's tube has radius 1.04-1.16 D (six points of radius 1.8 D per
 #: section, blended with the neighbours), so S at 1.25 D bounds it with a short walk to S (steps
 #: of 0.1 D: the walk runs nearly along the tube's normal, so the (u, v) found hardly depend on
 #: the step; a larger S or finer steps cost more for no visible change).  theta_max: the
 #: model's extent along the spiral (126 instances), which limits the whorls S looks through.
-BODY_MAPPING = HelicoSurface(spiral=MUREX_SPIRAL, u_period=SECTION_DEG, radius_factor=1.25,
-                             step=0.1, theta_max=INSTANCES * THETA_S)
+BODY_MAPPING = HelicoSurface(spiral=MUREX_SPIRAL, u_period=SECTION_DEG, u_start=-THETA_S / 2,
+                             radius_factor=1.25, step=0.1, theta_max=INSTANCES * THETA_S)
 
 #: x of the shell axis in the local frame: -R / D (a constant, since D = 0.341 R by Eq. 7).
 AXIS_X = -MUREX_SPIRAL.radius(0.0) / MUREX_SPIRAL.size(0.0)
@@ -125,7 +126,9 @@ class Choices:
     canal_straight: float = 2.0
     #: Field radii of the canal cone at its base and its tip.
     canal_radii: tuple[float, float] = (1.2, 0.5)
-    #: x_k of Eq. 11: distance from the centre of the generating surface to a spine's base.
+    #: x_k of Eq. 11 ("the distance to the edge of the shell") for a curving spine: from the
+    #: centre of the generating surface to the spine's base, a little inside the body's surface
+    #: (at about 1.08) so that the spine's thick base blends into the varix ridge.
     spine_offset: float = 0.85
     #: Length of a curving spine B_k before the scale by delta_i.
     spine_length: float = 1.2
@@ -135,7 +138,10 @@ class Choices:
     tori: tuple[tuple[float, float], ...] = ((0.95, 0.35), (1.2, 0.25))
     #: s: the default size of a bump (field radius of its point before the zeta scale).
     bump_size: float = 0.35
-    #: Distance from the centre of the generating surface to a bump's centre.
+    #: x_k of Eq. 11 for a bump: the paper places the bumps "using the same method" as the
+    #: spines, with x_k "the distance to the edge of the shell"; what lies at that distance
+    #: differs: a spine's base (spine_offset) but a bump's centre, put just inside the surface
+    #: so that about half of each bump shows (at spine_offset, 0.85, most of a bump is buried).
     bump_offset: float = 0.95
     #: Length and field radii (base, tip) of an axial canal spine of relative size 1.
     canal_spine_length: float = 1.6
@@ -159,6 +165,9 @@ class Choices:
     #: The inside wall (Eq. 15): a whorl of points of this fraction of point_radius, minus the
     #: hollow: it makes the opening round where the extension cones cut toward the previous whorl.
     wall_scale: float = 0.95
+    #: Whorl 1's three varices: Table 1 lists no spines for whorl 1 (the apex, where Figure 13
+    #: shows low ridges), so they are the two tori of Eq. 12 alone; False leaves them out.
+    first_whorl_varices: bool = True
 
 
 DEFAULT = Choices()
@@ -200,15 +209,20 @@ def about_axis(node: Node, degrees: float) -> Node:
     return node.translate(-AXIS_X, 0.0, 0.0).rotate("y", degrees).translate(AXIS_X, 0.0, 0.0)
 
 
-def instance_angle(i: int) -> float:
-    """theta_s * i of Eq. 9, in degrees."""
+def instance_angle(i: float) -> float:
+    """theta_s * i of Eq. 9, in degrees (i need not be whole: i + 0.5 lies between instances)."""
     return THETA_S * i
 
 
 def varix_angle(k: int) -> float:
-    """Angle of varix k (1..21): the last instance of section k-1, every 116 deg (Eq. 13)."""
+    """Angle of varix k (1..21), every 116 deg (Eq. 13): over the join where section k-1 ends
+    and section k begins, half an instance step after the last instance of section k-1
+    (Section 3.1: each section lies between two successive varices; Section 3.4: the joins are
+    covered by a varix).  Varix 21 closes the last section at the opening, where there is no
+    join: it sits on the last instance, as past it the body's tube ends (half a step further,
+    its spines would hang off the lip)."""
     k = _check_int("k", k, 1, VARICES)
-    return instance_angle(INSTANCES_PER_SECTION * k - 1)
+    return instance_angle(min(INSTANCES_PER_SECTION * k - 0.5, INSTANCES - 1))
 
 
 def whorl_of_varix(k: int) -> int:
@@ -356,17 +370,19 @@ def varix(whorl_index: int, tori: bool = True, thick_tops: bool = True, widen: b
 
 
 def varices(choices: Choices = DEFAULT, texture: np.ndarray | None = None) -> list[Node]:
-    """Eq. 13: B_v placed by Eq. 8 at every 116 deg, three per whorl (21 in all).  With
-    ``texture`` (Figure 12(b)), field-interpolated on the spines' cones (Section 3.4), the
-    tori painted in the texture's pale ground colour."""
+    """Eq. 13: B_v placed by Eq. 8 at every 116 deg over the joins of the sections, three per
+    whorl (21 in all; whorl 1's without spines, see :class:`Choices`).  With ``texture``
+    (Figure 12(b)), field-interpolated on the spines' cones (Section 3.4), the tori painted in
+    the texture's pale ground colour."""
+    first = 1 if choices.first_whorl_varices else 4
     if texture is None:
         return [place(varix(whorl_of_varix(k), choices=choices), varix_angle(k))
-                for k in range(1, VARICES + 1)]
+                for k in range(first, VARICES + 1)]
     wrap = SHELL_TEXTURES["varix_spine"].wrap
     return [
         place(varix(whorl_of_varix(k), choices=choices, tori_rgb=VARIX_PALE).texture(
             texture, wrap=wrap), varix_angle(k))
-        for k in range(1, VARICES + 1)
+        for k in range(first, VARICES + 1)
     ]
 
 
@@ -392,7 +408,9 @@ def bump_set(whorl_index: int, theta: float, rng: np.random.Generator | None = N
 def bumps(seed: int | np.random.Generator | None = 0, intervals: range | list[int] | None = None,
           choices: Choices = DEFAULT) -> list[Node]:
     """Section 3.2: five sets of bumps between varix k and k + 1 (k in ``intervals``, default
-    1..20), on the instances of section k; random sizes unless ``seed`` is None."""
+    1..20), evenly spaced over section k: the varices lie 6 instance steps apart, and the sets
+    one step apart between them (half-way between the section's instances); random sizes unless
+    ``seed`` is None."""
     rng = None if seed is None else _rng(seed)
     ks = range(1, VARICES) if intervals is None else intervals
     out = []
@@ -400,7 +418,7 @@ def bumps(seed: int | np.random.Generator | None = 0, intervals: range | list[in
         k = _check_int("intervals", k, 1, VARICES - 1)
         w = k // 3 + 1
         for m in range(BUMP_SETS):
-            out += bump_set(w, instance_angle(INSTANCES_PER_SECTION * k + m), rng, choices)
+            out += bump_set(w, instance_angle(INSTANCES_PER_SECTION * k + m + 0.5), rng, choices)
     return out
 
 
@@ -502,9 +520,20 @@ def inside_whorl(choices: Choices = DEFAULT) -> Node:
     return whorl(a, b, inside_generating_surface(choices))
 
 
+def previous_whorl(choices: Choices = DEFAULT) -> Node:
+    """B_w 94..108 of Eq. 14 as the body builds it: Eq. 9's sum of the instances 94 to 108 of
+    the body's generating surface, with the canal on the instances of the sections that have
+    one (from instance 102), so that the opening cuts nothing of it."""
+    a, b = PREVIOUS_WHORL
+    canal_from = INSTANCES_PER_SECTION * (SECTIONS - CANAL_SECTIONS)
+    plain, with_canal = generating_surface(False, choices), generating_surface(True, choices)
+    return _sum([place(with_canal if i >= canal_from else plain, instance_angle(i))
+                 for i in range(a, b + 1)])
+
+
 def opening(choices: Choices = DEFAULT) -> Node:
     """Eq. 14: B_opening = B_inside - B_w 94..108 (Figure 10 right): the previous whorl is kept."""
-    return difference(inside_whorl(choices), whorl(*PREVIOUS_WHORL, choices=choices))
+    return difference(inside_whorl(choices), previous_whorl(choices))
 
 
 def inside_wall(choices: Choices = DEFAULT) -> Node:

@@ -17,9 +17,9 @@ from .base import Layout, Paint, PaintKernels, register
 from .params import Choice, Image, Mapping, Param
 
 LAYOUT = Layout(0, to_local=12, normal_map=9, r0=1, rho=1, cot_beta=1, d_over_r=1,
-                theta_max=1, u_period=1, radius_factor=1, gradient_weight=1, step=1,
+                theta_max=1, u_period=1, u_start=1, radius_factor=1, gradient_weight=1, step=1,
                 max_steps=1, image=1)
-(TO_LOCAL, NORMAL_MAP, R0, RHO, COT_BETA, D_OVER_R, THETA_MAX, U_PERIOD, RADIUS_FACTOR,
+(TO_LOCAL, NORMAL_MAP, R0, RHO, COT_BETA, D_OVER_R, THETA_MAX, U_PERIOD, U_START, RADIUS_FACTOR,
  GRADIENT_WEIGHT, STEP, MAX_STEPS, IMAGE) = LAYOUT.offsets
 
 
@@ -72,7 +72,8 @@ def texture_paint(p, o, px, py, pz, gx, gy, gz):
             h = step * d / sn
             x, y, z = x + h * sx, y + h * sy, z + h * sz
     theta, dr, dy, rx, rz, d = helico_locate(p, o, x, y, z)
-    return kmath.texel(p, int(p[o + IMAGE]), theta / p[o + U_PERIOD], kmath.turn(dy, dr))
+    return kmath.texel(p, int(p[o + IMAGE]), (theta - p[o + U_START]) / p[o + U_PERIOD],
+                       kmath.turn(dy, dr))
 
 
 @register
@@ -110,7 +111,8 @@ class Texture(Paint):
         return LAYOUT.pack(
             to_local=geo.invert(frame), normal_map=frame[:, :3].T, r0=sp.r0, rho=sp.rho,
             cot_beta=1.0 / math.tan(math.radians(sp.beta)), d_over_r=sp.d_over_r,
-            theta_max=ms.theta_max, u_period=ms.u_period, radius_factor=ms.radius_factor,
+            theta_max=ms.theta_max, u_period=ms.u_period, u_start=ms.u_start,
+            radius_factor=ms.radius_factor,
             gradient_weight=ms.gradient_weight, step=ms.step, max_steps=ms.max_steps,
             image=image_offset(self))
 
