@@ -97,7 +97,8 @@ def test_paper_constants():
     assert 3 * M.SECTION_DEG == M.WHORL_DEG == 348
     assert M.varix_angle(1) == pytest.approx(5.5 * 116 / 6)  # over the join of sections 0, 1
     assert M.varix_angle(21) == pytest.approx(125 * 116 / 6)  # the lip: the last instance
-    assert [M.varix_angle(k + 1) - M.varix_angle(k) for k in (1, 10, 19)] == pytest.approx([116] * 3)
+    steps = [M.varix_angle(k + 1) - M.varix_angle(k) for k in (1, 10, 19)]
+    assert steps == pytest.approx([116] * 3)
 
 
 # --- structure and counts ---------------------------------------------------------------------
