@@ -91,13 +91,14 @@ COLOURS = {
     "inside": (0.95, 0.78, 0.72),
 }
 
-#: Section 3.4: the bounding surface of texture (a), a tube around the spiral with one texture copy
-#: per 116 deg section, each copy starting at a join between sections (half an instance step
-#: before the section's first instance), so that its seams lie under the varices.  The body's tube has radius 1.04-1.16 D (six points of radius 1.8 D per
-#: section, blended with the neighbours), so S at 1.25 D bounds it with a short walk to S (steps
-#: of 0.1 D: the walk runs nearly along the tube's normal, so the (u, v) found hardly depend on
-#: the step; a larger S or finer steps cost more for no visible change).  theta_max: the
-#: model's extent along the spiral (126 instances), which limits the whorls S looks through.
+#: Section 3.4: the bounding surface of texture (a), a tube around the spiral with one texture
+#: copy per 116 deg section, each copy starting at a join between sections (half an instance
+#: step before the section's first instance), so that its seams lie under the varices.  The
+#: body's tube has radius 1.04-1.16 D (six points of radius 1.8 D per section, blended with the
+#: neighbours), so S at 1.25 D bounds it with a short walk to S (steps of 0.1 D: the walk runs
+#: nearly along the tube's normal, so the (u, v) found hardly depend on the step; a larger S or
+#: finer steps cost more for no visible change).  theta_max: the model's extent along the spiral
+#: (126 instances), which limits the whorls S looks through.
 BODY_MAPPING = HelicoSurface(spiral=MUREX_SPIRAL, u_period=SECTION_DEG, u_start=-THETA_S / 2,
                              radius_factor=1.25, step=0.1, theta_max=INSTANCES * THETA_S)
 

@@ -10,7 +10,7 @@ import numpy as np
 
 from .. import geometry as geo
 from .base import Affine, Node, register
-from .params import Axis, Number, Param, Vec3
+from .params import MAX_SIZE, MIN_SIZE, Axis, Param, Vec3, angle
 
 
 @register
@@ -39,7 +39,7 @@ class Scale(Affine):
 
     TYPE = "scale"
     METHOD = "scale"
-    PARAMS = (Param("factors", Vec3(sample=(0.5, 2.0))),)
+    PARAMS = (Param("factors", Vec3(sample=(0.5, 2.0), limit=MAX_SIZE, least=MIN_SIZE)),)
 
     @classmethod
     def chain(cls, child: Node, sx: float, sy: float | None = None,
@@ -50,10 +50,6 @@ class Scale(Affine):
         if sy is None or sz is None:
             raise ValueError("scale takes one factor (uniform) or three (sx, sy, sz)")
         return cls(child, (sx, sy, sz))
-
-    def _check(self):
-        if np.any(self.factors == 0.0):
-            raise ValueError(f"scale factors must be non-zero, got {tuple(self.factors)}")
 
     @cached_property
     def matrix(self):
@@ -66,7 +62,7 @@ class Rotate(Affine):
 
     TYPE = "rotate"
     METHOD = "rotate"
-    PARAMS = (Param("axis", Axis()), Param("degrees", Number(sample=(-180.0, 180.0))))
+    PARAMS = (Param("axis", Axis()), Param("degrees", angle()))
 
     @cached_property
     def matrix(self):

@@ -20,7 +20,7 @@ from .base import (
     PrimitiveKernels,
     register,
 )
-from .params import Param, Vec3
+from .params import MAX_SIZE, MIN_SIZE, Param, Vec3
 
 # Where the ellipsoid's own numbers sit in the program, after the primitive header.
 LAYOUT = Layout(GEOMETRY, center=3, radii=3)
@@ -70,7 +70,8 @@ class Ellipsoid(Primitive):
 
     TYPE = "ellipsoid"
     PARAMS = (
-        Param("radii", Vec3(sample=(0.3, 1.2)), (1.0, 1.0, 1.0), "field radius along x, y, z"),
+        Param("radii", Vec3(sample=(0.3, 1.2), limit=MAX_SIZE, least=MIN_SIZE), (1.0, 1.0, 1.0),
+              "field radius along x, y, z"),
         Param("center", Vec3(), (0.0, 0.0, 0.0)),
         FALLOFF_PARAM,
     )

@@ -16,11 +16,18 @@ from typing import Any
 
 import numpy as np
 
-from .. import geometry as geo
 from .. import texture as tex
 
 #: Marks a parameter without a default.
 REQUIRED: Any = object()
+
+# ----- the documented limits (docs/limits.md) -------------------------------------------------
+#: Coordinates (centres, axis ends, offsets): |x| at most this, in scene units.
+MAX_COORD = 1e6
+#: Radii, lengths, scale factors: within [MIN_SIZE, MAX_SIZE] (magnitude, for scale factors).
+MIN_SIZE, MAX_SIZE = 1e-6, 1e6
+#: Angles and angle rates, in degrees: |a| at most this.
+MAX_ANGLE = 1e6
 
 
 def _short(value: Any) -> str:
@@ -98,25 +105,41 @@ class Number(Kind):
 
 
 def positive(sample: tuple[float, float] = (0.3, 1.2)) -> Number:
-    """A finite number > 0."""
-    return Number(lo=0.0, lo_open=True, sample=sample)
+    """A size: a number in [MIN_SIZE, MAX_SIZE]."""
+    return Number(lo=MIN_SIZE, hi=MAX_SIZE, sample=sample)
+
+
+def angle(sample: tuple[float, float] = (-180.0, 180.0)) -> Number:
+    """An angle (or an angle per unit length) in degrees, |a| <= MAX_ANGLE."""
+    return Number(lo=-MAX_ANGLE, hi=MAX_ANGLE, sample=sample)
 
 
 @dataclass(frozen=True)
 class Vec3(Kind):
-    """A finite 3-vector, kept as a read-only float array."""
+    """A 3-vector of finite numbers, each of magnitude within [least, limit], kept as a
+    read-only float array."""
 
     sample: tuple[float, float] = (-1.0, 1.0)
+    limit: float = MAX_COORD
+    least: float = 0.0
     schema = "3-vector"
 
+    def allowed(self) -> str:
+        rule = f"|x| <= {self.limit:g}" if not self.least else \
+            f"{self.least:g} <= |x| <= {self.limit:g}"
+        return f"three finite numbers with {rule}"
+
     def check(self, name: str, value: Any) -> np.ndarray:
-        if isinstance(value, str) or not _is_vector(value):
-            raise ValueError(f"{name} must be a 3-vector of finite numbers, got {_short(value)}")
-        try:
-            items = [float(v) for v in value]
-        except OverflowError:
-            items = [math.inf]
-        return frozen(geo.check_vec3(name, items))
+        items = None
+        if not isinstance(value, str) and _is_vector(value):
+            try:
+                items = np.array([float(v) for v in value])
+            except OverflowError:
+                items = None
+        if items is None or not np.all(np.isfinite(items)) or np.any(np.abs(items) > self.limit) \
+                or np.any(np.abs(items) < self.least):
+            raise ValueError(f"{name} must be {self.allowed()}, got {_short(value)}")
+        return frozen(items)
 
     def to_json(self, value, images):
         return [float(v) for v in value]
@@ -143,7 +166,7 @@ class RGB(Vec3):
     def check(self, name: str, value: Any) -> np.ndarray:
         v = super().check(name, value)
         if np.any(v < 0.0) or np.any(v > 1.0):
-            raise ValueError(f"{name} components must lie in [0, 1], got {tuple(v.tolist())}")
+            raise ValueError(f"{name} components must lie in [0, 1], got {_short(value)}")
         return v
 
 
@@ -156,7 +179,7 @@ class Choice(Kind):
 
     def check(self, name: str, value: Any) -> str:
         if not isinstance(value, str) or value not in self.options:
-            raise ValueError(f"{name} must be one of {list(self.options)}, got {value!r}")
+            raise ValueError(f"{name} must be one of {list(self.options)}, got {_short(value)}")
         return value
 
 
@@ -172,11 +195,10 @@ class Axis(Kind):
     def check(self, name: str, value: Any) -> str | tuple[float, float, float]:
         if isinstance(value, str):
             return AXES.check(name, value)
-        if not _is_vector(value):
-            raise ValueError(f"{name} must be 'x', 'y', 'z' or a 3-vector, got {value!r}")
-        v = geo.check_vec3(name, [float(x) for x in value])
-        if not np.any(v != 0.0):
-            raise ValueError(f"{name} must be a non-zero vector, got (0, 0, 0)")
+        v = Vec3().check(name, value) if _is_vector(value) else None
+        if v is None or not np.any(v != 0.0):
+            raise ValueError(f"{name} must be 'x', 'y', 'z' or a non-zero 3-vector, got "
+                             f"{_short(value)}")
         return tuple(float(x) for x in v)
 
     def to_json(self, value, images):
@@ -191,11 +213,12 @@ class Pairs(Kind):
 
     def check(self, name: str, value: Any) -> tuple[tuple[int, int], ...]:
         if isinstance(value, str | bytes):
-            raise ValueError(f"{name} must be a list of index pairs, got {value!r}")
+            raise ValueError(f"{name} must be a list of index pairs, got {_short(value)}")
         try:
             items = list(value)
         except TypeError:
-            raise ValueError(f"{name} must be a list of index pairs, got {value!r}") from None
+            raise ValueError(f"{name} must be a list of index pairs, got {_short(value)}") \
+                from None
         out = []
         for k, pair in enumerate(items):
             try:
@@ -205,7 +228,7 @@ class Pairs(Kind):
             except TypeError:
                 ok = False
             if not ok:
-                raise ValueError(f"{name}[{k}] must be two child indices, got {pair!r}")
+                raise ValueError(f"{name}[{k}] must be two child indices, got {_short(pair)}")
             out.append((int(pair[0]), int(pair[1])))
         return tuple(out)
 
@@ -233,7 +256,7 @@ class Image(Kind):
 
     def from_json(self, name, value, images):
         if not isinstance(value, str) or value not in images:
-            raise ValueError(f"{name}: {value!r} is not in $.images")
+            raise ValueError(f"{name}: {_short(value)} is not in $.images")
         return images[value]
 
     def key(self, value) -> str:
@@ -259,7 +282,7 @@ class Mapping(Kind):
         if isinstance(value, dict) and list(value) == ["helico"] and isinstance(
                 value["helico"], dict):
             return tex.HelicoSurface.from_dict(value["helico"])
-        raise ValueError(f"{name}: expected {self.schema}, got {value!r}")
+        raise ValueError(f"{name}: expected {self.schema}, got {_short(value)}")
 
 
 @dataclass(frozen=True)

@@ -8,7 +8,7 @@ import numpy as np
 
 from ..jit import kernel
 from .base import Layout, WarpKernels, register
-from .params import AXES, Number, Param
+from .params import AXES, MAX_SIZE, Number, Param
 from .warp import PERM_END, AxialWarp
 
 LAYOUT = Layout(PERM_END, rate=1, t0=1, t1=1)
@@ -35,7 +35,7 @@ class Taper(AxialWarp):
     TYPE = "taper"
     METHOD = "taper"
     PARAMS = (
-        Param("rate", Number(sample=(-0.25, 0.25))),
+        Param("rate", Number(lo=-MAX_SIZE, hi=MAX_SIZE, sample=(-0.25, 0.25))),
         Param("axis", AXES, "y"),
     )
     LAYOUT = LAYOUT

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..jit import kernel
 from .base import Layout, WarpKernels, register
-from .params import AXES, Number, Param
+from .params import AXES, Param, angle
 from .warp import PERM_END, AxialWarp
 
 LAYOUT = Layout(PERM_END, k=1)
@@ -34,7 +34,7 @@ class Twist(AxialWarp):
     TYPE = "twist"
     METHOD = "twist"
     PARAMS = (
-        Param("degrees_per_unit", Number(sample=(-90.0, 90.0))),
+        Param("degrees_per_unit", angle(sample=(-90.0, 90.0))),
         Param("axis", AXES, "y"),
     )
     LAYOUT = LAYOUT
