@@ -17,12 +17,18 @@ class HelicoSpiral:
     d_ratio: float | None = None
 
     def __post_init__(self) -> None:
-        if not (0.0 < self.beta < 90.0):
-            raise ValueError(f"beta must be in (0, 90) degrees, got {self.beta!r}")
-        if not (self.rho > 1.0 and math.isfinite(self.rho)):
-            raise ValueError(f"rho must be a finite number > 1, got {self.rho!r}")
-        if not (self.r0 > 0.0 and math.isfinite(self.r0)):
-            raise ValueError(f"r0 must be a finite number > 0, got {self.r0!r}")
+        for name in ("beta", "rho", "r0") + (("d_ratio",) if self.d_ratio is not None else ()):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+                raise ValueError(f"{name} must be a finite number, got {str(v)[:60]}")
+        if not (0.1 <= self.beta <= 89.9):
+            raise ValueError(f"beta must be in [0.1, 89.9] degrees, got {self.beta!r}")
+        if not (1.0 + 1e-6 <= self.rho <= 1e3):
+            raise ValueError(f"rho must be in [1.000001, 1000], got {self.rho!r}")
+        if not (1e-6 <= self.r0 <= 1e6):
+            raise ValueError(f"r0 must be in [1e-06, 1e+06], got {self.r0!r}")
+        if self.d_ratio is not None and not (1e-6 <= self.d_ratio <= 1e3):
+            raise ValueError(f"d_ratio must be in [1e-06, 1000] or None, got {self.d_ratio!r}")
 
     def radius(self, theta: float) -> float:
         """Eq. 1: R(theta) = R0 rho^(theta / 360), theta in degrees."""

@@ -24,6 +24,7 @@ import base64
 import hashlib
 import io
 import math
+import numbers
 import os
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
@@ -31,9 +32,11 @@ from typing import Any
 
 import numpy as np
 
-from . import geometry as geo
 from .spiral import HelicoSpiral
 
+#: Largest theta_max of a bounding surface, in degrees (100 turns: the nearest-whorl search
+#: looks at theta_max / 360 + 2 whorls per step).
+MAX_THETA = 36000.0
 #: Grid on which a texture given as a function of (u, v) is sampled.
 FUNCTION_SIZE = 256
 WRAPS = {"repeat": 0, "clamp": 1}
@@ -41,6 +44,14 @@ MAX_SIDE = 4096
 
 TextureSource = (str | os.PathLike | io.BytesIO | np.ndarray
                  | Callable[[np.ndarray, np.ndarray], Any])
+
+
+def _in_range(name: str, value: Any, lo: float, hi: float) -> float:
+    if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real) \
+            or not math.isfinite(value) or not lo <= value <= hi:
+        raise ValueError(f"{name} must be a finite number in [{lo:g}, {hi:g}], got "
+                         f"{str(value)[:60]}")
+    return float(value)
 
 
 def load_image(source: TextureSource) -> np.ndarray:
@@ -58,9 +69,14 @@ def load_image(source: TextureSource) -> np.ndarray:
 
         try:
             with Image.open(source) as im:
+                if max(im.size) > MAX_SIDE or min(im.size) < 1:  # checked before decoding
+                    raise ValueError(f"image must have sides in [1, {MAX_SIDE}] pixels, got "
+                                     f"{im.size[0]}x{im.size[1]}")
                 arr = np.asarray(im.convert("RGB"))
-        except (FileNotFoundError, UnidentifiedImageError, OSError) as e:
-            raise ValueError(f"image: cannot read {source!r}: {e}") from None
+        except (FileNotFoundError, UnidentifiedImageError, OSError, Image.DecompressionBombError
+                ) as e:
+            name = source if isinstance(source, str | os.PathLike) else "the image data"
+            raise ValueError(f"image: cannot read {str(name)[:80]}: {e}") from None
     else:
         arr = np.asarray(source)
     if arr.ndim == 2:
@@ -159,16 +175,18 @@ class HelicoSurface:
     max_steps: int = 64
 
     def __post_init__(self) -> None:
-        geo.check_positive("u_period", self.u_period)
-        geo.check_finite("u_start", self.u_start)
-        geo.check_positive("radius_factor", self.radius_factor)
-        geo.check_positive("theta_max", self.theta_max)
-        geo.check_positive("step", self.step)
-        if not 0.0 <= self.gradient_weight <= 1.0:
-            raise ValueError(f"gradient_weight must lie in [0, 1], got {self.gradient_weight!r}")
-        if not (isinstance(self.max_steps, int) and 0 <= self.max_steps <= 10_000):
+        if not isinstance(self.spiral, HelicoSpiral):
+            raise ValueError(f"spiral must be a HelicoSpiral, got {type(self.spiral).__name__}")
+        _in_range("u_period", self.u_period, 1e-6, 1e6)
+        _in_range("u_start", self.u_start, -1e6, 1e6)
+        _in_range("radius_factor", self.radius_factor, 1e-3, 1e3)
+        _in_range("theta_max", self.theta_max, 1e-6, MAX_THETA)
+        _in_range("step", self.step, 1e-6, 1e3)
+        _in_range("gradient_weight", self.gradient_weight, 0.0, 1.0)
+        if isinstance(self.max_steps, bool) or not isinstance(self.max_steps, int) \
+                or not 0 <= self.max_steps <= 10_000:
             raise ValueError(f"max_steps must be an integer in [0, 10000], got "
-                             f"{self.max_steps!r}")
+                             f"{str(self.max_steps)[:60]}")
 
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
@@ -177,8 +195,22 @@ class HelicoSurface:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> HelicoSurface:
+        """From :meth:`to_dict`'s form; ValueError naming what is missing or unknown."""
         d = dict(d)
-        d["spiral"] = HelicoSpiral(**d["spiral"])
+        fields = set(cls.__dataclass_fields__)
+        unknown = sorted(set(d) - fields)
+        if unknown:
+            raise ValueError(f"unknown HelicoSurface field(s) {unknown}; known: {sorted(fields)}")
+        spiral = d.get("spiral", {})
+        sfields = set(HelicoSpiral.__dataclass_fields__)
+        if not isinstance(spiral, dict) or set(spiral) - sfields:
+            raise ValueError(f"spiral must be an object with fields among {sorted(sfields)}, "
+                             f"got {str(spiral)[:60]}")
+        for key, value in [*d.items(), *spiral.items()]:
+            if key != "spiral" and value is not None and (
+                    isinstance(value, bool) or not isinstance(value, numbers.Real)):
+                raise ValueError(f"{key} must be a number, got {str(value)[:60]}")
+        d["spiral"] = HelicoSpiral(**spiral)
         return cls(**d)
 
     # ----- reference maths (numpy) ------------------------------------------------------------

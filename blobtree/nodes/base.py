@@ -43,6 +43,9 @@ DEFAULT_COLOR = (0.8, 0.8, 0.8)
 
 Result = tuple[np.ndarray, np.ndarray, np.ndarray]
 
+#: The deepest tree that may be built (every recursive walk stays within Python's stack).
+MAX_DEPTH = 256
+
 #: Every node type by its scene-file name, in registration order.
 REGISTRY: dict[str, type[Node]] = {}
 _frozen_by: list[str] = []
@@ -181,7 +184,7 @@ def check_points(P: Any) -> np.ndarray:
 
 def require_node(name: str, value: Any) -> Node:
     if not isinstance(value, Node):
-        raise ValueError(f"{name} must be a BlobTree node, got {type(value).__name__}")
+        raise ValueError(f"{name} must be a BlobTree node, got {type(value).__name__[:60]}")
     return value
 
 
@@ -203,6 +206,8 @@ class Node:
     METHOD: ClassVar[str | None] = None
 
     children: tuple[Node, ...]
+    #: Levels from this node down to its deepest leaf (1 for a primitive).
+    depth: int
 
     # ----- construction -----------------------------------------------------------------------
     @classmethod
@@ -244,6 +249,12 @@ class Node:
         name = "child" if hi == 1 else "children[{}]"
         self._set("children", tuple(require_node(name.format(i), c)
                                     for i, c in enumerate(children)))
+        depth = 1 + max((c.depth for c in self.children), default=0)
+        if depth > MAX_DEPTH:
+            raise ValueError(f"the tree would be {depth} levels deep, more than {MAX_DEPTH}: "
+                             "group long chains (e.g. one blend of many children rather than "
+                             "blends of blends)")
+        self._set("depth", depth)
         for p in cls.PARAMS:
             self._set(p.name, p.kind.check(p.name, values[p.name]))
         self._check()

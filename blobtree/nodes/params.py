@@ -104,6 +104,22 @@ class Number(Kind):
         return float(value).hex()
 
 
+@dataclass(frozen=True)
+class Integer(Kind):
+    """A whole number within [lo, hi] (not a bool, not a float)."""
+
+    lo: int = 0
+    hi: int = 2**63 - 1
+    schema = "integer"
+
+    def check(self, name: str, value: Any) -> int:
+        if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Integral) \
+                or not self.lo <= value <= self.hi:
+            raise ValueError(f"{name} must be an integer in [{self.lo}, {self.hi}], got "
+                             f"{_short(value)}")
+        return int(value)
+
+
 def positive(sample: tuple[float, float] = (0.3, 1.2)) -> Number:
     """A size: a number in [MIN_SIZE, MAX_SIZE]."""
     return Number(lo=MIN_SIZE, hi=MAX_SIZE, sample=sample)

@@ -7,27 +7,22 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..nodes.params import RGB, Number, Vec3
+
+#: Camera and light positions may lie this far from the origin.
+MAX_POSITION = 1e9
+_POSITION = Vec3(limit=MAX_POSITION)
+_FOV = Number(lo=0.0, hi=180.0, lo_open=True, hi_open=True)
+
 
 def as_vec3(name: str, value) -> np.ndarray:
     """``value`` as a finite float64 3-vector, or ValueError naming ``name``."""
-    try:
-        v = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        v = None
-    if v is None or v.shape != (3,) or not np.all(np.isfinite(v)):
-        raise ValueError(f"{name} must be 3 finite numbers, got {value!r}")
-    return v
+    return np.array(_POSITION.check(name, value))
 
 
 def as_color(name: str, value) -> np.ndarray:
     """``value`` as an RGB triple in [0, 1], or ValueError naming ``name``."""
-    try:
-        v = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        v = None
-    if v is None or v.shape != (3,) or not np.all((v >= 0.0) & (v <= 1.0)):
-        raise ValueError(f"{name} must be 3 numbers in [0, 1] (r, g, b), got {value!r}")
-    return v
+    return np.array(RGB().check(name, value))
 
 
 @dataclass(frozen=True)
@@ -44,19 +39,20 @@ class Camera:
         eye = as_vec3("eye", self.eye)
         target = as_vec3("target", self.target)
         up = as_vec3("up", self.up)
-        if not (isinstance(self.fov, int | float) and 0.0 < self.fov < 180.0):
-            raise ValueError(f"fov must be in (0, 180) degrees, got {self.fov!r}")
-        if np.allclose(eye, target):
-            raise ValueError(f"eye must differ from target, got eye={self.eye!r}, "
-                             f"target={self.target!r}")
+        fov = _FOV.check("fov", self.fov)
+        if np.linalg.norm(target - eye) <= 1e-9 * max(np.abs(eye).max(), np.abs(target).max(),
+                                                      1.0):
+            raise ValueError(f"eye must differ from target, got eye={tuple(eye.tolist())}, "
+                             f"target={tuple(target.tolist())}")
         fwd = (target - eye) / np.linalg.norm(target - eye)
         if np.linalg.norm(np.cross(fwd, up)) < 1e-9 * max(np.linalg.norm(up), 1e-300):
-            raise ValueError(f"up must not be parallel to the view direction, got up={self.up!r}")
+            raise ValueError(f"up must not be parallel to the view direction, got up="
+                             f"{tuple(up.tolist())}")
         # Store plain float tuples so the camera hashes, pickles and prints cleanly.
         object.__setattr__(self, "eye", tuple(float(x) for x in eye))
         object.__setattr__(self, "target", tuple(float(x) for x in target))
         object.__setattr__(self, "up", tuple(float(x) for x in up))
-        object.__setattr__(self, "fov", float(self.fov))
+        object.__setattr__(self, "fov", fov)
 
     def basis(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Unit (forward, right, up) vectors of the image plane."""

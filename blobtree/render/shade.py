@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..engine import interp
 from ..jit import kernel
+from ..nodes.params import Number
 from .camera import Camera, as_color, as_vec3
 from .trace import clip_box, trace_from_local
 
@@ -40,8 +40,7 @@ class Light:
         else:
             as_vec3("position", self.position)
         as_color("color", self.color)
-        if not (math.isfinite(self.intensity) and self.intensity >= 0.0):
-            raise ValueError(f"intensity must be a finite number >= 0, got {self.intensity!r}")
+        Number(lo=0.0, hi=1e6).check("intensity", self.intensity)
 
     def packed(self) -> np.ndarray:
         """The light as one kernel row: kind, toward-light direction (unit) or position, rgb."""
@@ -65,7 +64,8 @@ def pack_lights(lights: list[Light]) -> np.ndarray:
         return np.zeros((0, 7))
     for i, light in enumerate(lights):
         if not isinstance(light, Light):
-            raise ValueError(f"lights[{i}] must be a blobtree Light, got {light!r}")
+            raise ValueError(f"lights[{i}] must be a blobtree Light, got "
+                             f"{type(light).__name__[:60]}")
     return np.stack([light.packed() for light in lights])
 
 

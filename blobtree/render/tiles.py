@@ -8,13 +8,13 @@ byte-identical image.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..engine.specialize import specialize
 from ..jit import kernel
+from ..nodes.params import Integer, Number
 from .camera import Camera, as_color
 from .shade import Light, linear_to_srgb_byte, pack_lights, shade, srgb_to_linear_array
 from .trace import clip_box, march_cone, trace_from_local
@@ -52,22 +52,15 @@ class RenderSettings:
     seed: int = 0
 
     def __post_init__(self) -> None:
-        for name in ("width", "height"):
-            v = getattr(self, name)
-            if not (isinstance(v, int | np.integer) and 1 <= v <= MAX_SIDE):
-                raise ValueError(f"{name} must be an integer in [1, {MAX_SIDE}], got {v!r}")
-        if not (isinstance(self.samples, int | np.integer) and 1 <= self.samples <= MAX_SAMPLES):
-            raise ValueError(
-                f"samples must be an integer in [1, {MAX_SAMPLES}], got {self.samples!r}"
-            )
+        for name, kind in (("width", Integer(1, MAX_SIDE)), ("height", Integer(1, MAX_SIDE)),
+                           ("samples", Integer(1, MAX_SAMPLES)), ("seed", Integer(0, 2**32 - 1))):
+            object.__setattr__(self, name, kind.check(name, getattr(self, name)))
         object.__setattr__(self, "background", tuple(float(c) for c in as_color(
             "background", self.background)))
         for name in ("ambient", "specular", "shininess"):
-            v = getattr(self, name)
-            if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0.0):
-                raise ValueError(f"{name} must be a finite number >= 0, got {v!r}")
-        if not (isinstance(self.seed, int | np.integer) and 0 <= self.seed < 2**32):
-            raise ValueError(f"seed must be an integer in [0, 2**32), got {self.seed!r}")
+            object.__setattr__(self, name, Number(lo=0.0, hi=1e6).check(name, getattr(self, name)))
+        if not isinstance(self.shadows, bool | np.bool_):
+            raise ValueError(f"shadows must be True or False, got {str(self.shadows)[:60]}")
 
 
 def check_rect(settings: RenderSettings, x0: int, y0: int, x1: int, y1: int) -> None:
@@ -84,7 +77,7 @@ def render_tile(prog, camera: Camera, lights: list[Light], settings: RenderSetti
     """Pixels [y0, y1) x [x0, x1) of the image, as a (y1 - y0, x1 - x0, 3) uint8 array."""
     check_rect(settings, x0, y0, x1, y1)
     if not isinstance(camera, Camera):
-        raise ValueError(f"camera must be a blobtree Camera, got {camera!r}")
+        raise ValueError(f"camera must be a blobtree Camera, got {type(camera).__name__[:60]}")
     return trace_rect(prog, camera.packed(settings.width, settings.height), pack_lights(lights),
                       settings, x0, y0, x1, y1)
 
