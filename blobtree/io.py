@@ -23,8 +23,10 @@ from typing import Any
 
 import numpy as np
 
+from .checks import short_repr
 from .files import atomic_path
 from .nodes import REGISTRY, Node
+from .nodes.base import arity_words
 from .texture import image_from_text, image_to_text
 
 FORMAT = "blobtree-scene"
@@ -76,18 +78,43 @@ def save(tree: Node, path: str | os.PathLike) -> None:
         tmp.write_text(text, encoding="utf-8")
 
 
-def _reject_constant(name: str) -> Any:
-    raise SceneError(f"$: {name} is not allowed in a scene file (numbers must be finite)")
+class _NonFinite(str):
+    """Where a NaN or Infinity literal was in the text (refused once its path is known)."""
+
+
+def _non_finite_path(doc: Any) -> str | None:
+    """The JSON path of the first NaN or Infinity literal in ``doc``, or None."""
+    todo: list[tuple[Any, str]] = [(doc, "$")]
+    while todo:
+        v, path = todo.pop()
+        if isinstance(v, _NonFinite):
+            return path
+        if isinstance(v, dict):
+            todo.extend((x, f"{path}.{_short_key(k)}") for k, x in reversed(v.items()))
+        elif isinstance(v, list):
+            todo.extend((x, f"{path}[{i}]") for i, x in reversed(list(enumerate(v))))
+    return None
+
+
+def _short_key(key: str) -> str:
+    return key if len(key) <= 40 else key[:37] + "..."
 
 
 def loads(text: str) -> Node:
     """Build a tree from scene-file text."""
     try:
-        doc = json.loads(text, parse_constant=_reject_constant)
+        doc = json.loads(text, parse_constant=_NonFinite)
     except json.JSONDecodeError as e:
         raise SceneError(f"$: not valid JSON: {e}") from None
     except RecursionError:
         raise SceneError("$: nested too deeply to read") from None
+    except ValueError:  # the only other error json raises: an over-long integer literal
+        raise SceneError("$: an integer literal has more digits than Python reads (4300)"
+                         ) from None
+    path = _non_finite_path(doc)
+    if path is not None:
+        raise SceneError(f"{path}: NaN and Infinity are not allowed in a scene file (numbers "
+                         "must be finite)")
     return from_dict(doc)
 
 
@@ -105,10 +132,10 @@ def from_dict(doc: Any) -> Node:
     if not isinstance(doc, dict):
         raise SceneError(f"$: expected an object, got {_kind(doc)}")
     if doc.get("format") != FORMAT:
-        raise SceneError(f"$.format: expected {FORMAT!r}, got {doc.get('format')!r}")
+        raise SceneError(f"$.format: expected {FORMAT!r}, got {short_repr(doc.get('format'))}")
     version = doc.get("version")
     if not isinstance(version, int) or isinstance(version, bool) or version < 1:
-        raise SceneError(f"$.version: expected a positive integer, got {version!r}")
+        raise SceneError(f"$.version: expected a positive integer, got {short_repr(version)}")
     if version > VERSION:
         raise SceneError(
             f"$.version: file version {version} is newer than this blobtree reads ({VERSION}); "
@@ -116,7 +143,7 @@ def from_dict(doc: Any) -> Node:
     known = {"format", "version", "images", "root"} | ({"nodes"} if version >= 2 else set())
     extra = set(doc) - known
     if extra:
-        raise SceneError(f"$: unknown key(s) {sorted(extra)}")
+        raise SceneError(f"$: unknown key(s) {short_repr(sorted(extra))}")
     if "root" not in doc:
         raise SceneError("$.root: missing")
     raw = doc.get("images", {})
@@ -127,7 +154,7 @@ def from_dict(doc: Any) -> Node:
         try:
             images[key] = image_from_text(text)
         except ValueError as e:
-            raise SceneError(f"$.images.{key}: {e}") from None
+            raise SceneError(f"$.images.{_short_key(key)}: {e}") from None
     if version == 1:
         try:
             return _build_nested(doc["root"], "$.root", images)
@@ -182,17 +209,18 @@ def _make(d: Any, path: str, children: list[Node], images: dict[str, Any]) -> No
     t = d.get("type")
     cls = REGISTRY.get(t) if isinstance(t, str) else None
     if cls is None:
-        raise SceneError(f"{path}.type: unknown node type {t!r}; known: {sorted(REGISTRY)}")
+        raise SceneError(f"{path}.type: unknown node type {short_repr(t)}; "
+                         f"known: {sorted(REGISTRY)}")
     extra = set(d) - {"type", "params", "children"}
     if extra:
-        raise SceneError(f"{path}: unknown key(s) {sorted(extra)}")
+        raise SceneError(f"{path}: unknown key(s) {short_repr(sorted(extra))}")
     params = d.get("params", {})
     if not isinstance(params, dict):
         raise SceneError(f"{path}.params: expected an object, got {_kind(params)}")
     spec = {p.name: p for p in cls.PARAMS}
     for key in params:
         if key not in spec:
-            raise SceneError(f"{path}.params.{key}: unknown parameter for {t!r}; "
+            raise SceneError(f"{path}.params.{_short_key(key)}: unknown parameter for {t!r}; "
                              f"expected {sorted(spec)}")
     values = {}
     for name, p in spec.items():
@@ -204,9 +232,8 @@ def _make(d: Any, path: str, children: list[Node], images: dict[str, Any]) -> No
             raise SceneError(f"{path}.params.{name}: {e}") from None
     lo, hi = cls.ARITY
     if len(children) < lo or (hi is not None and len(children) > hi):
-        want = f"at least {lo}" if hi is None else (f"exactly {lo}" if lo == hi else
-                                                      f"{lo} to {hi}")
-        raise SceneError(f"{path}.children: {t!r} takes {want} children, got {len(children)}")
+        raise SceneError(f"{path}.children: {t!r} takes {arity_words(lo, hi)} children, got "
+                         f"{len(children)}")
     try:
         return cls(*children, **values)
     except (ValueError, TypeError) as e:

@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from .checks import Number, positive
+
 
 @dataclass(frozen=True)
 class HelicoSpiral:
@@ -17,18 +19,10 @@ class HelicoSpiral:
     d_ratio: float | None = None
 
     def __post_init__(self) -> None:
-        for name in ("beta", "rho", "r0") + (("d_ratio",) if self.d_ratio is not None else ()):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
-                raise ValueError(f"{name} must be a finite number, got {str(v)[:60]}")
-        if not (0.1 <= self.beta <= 89.9):
-            raise ValueError(f"beta must be in [0.1, 89.9] degrees, got {self.beta!r}")
-        if not (1.0 + 1e-6 <= self.rho <= 1e3):
-            raise ValueError(f"rho must be in [1.000001, 1000], got {self.rho!r}")
-        if not (1e-6 <= self.r0 <= 1e6):
-            raise ValueError(f"r0 must be in [1e-06, 1e+06], got {self.r0!r}")
-        if self.d_ratio is not None and not (1e-6 <= self.d_ratio <= 1e3):
-            raise ValueError(f"d_ratio must be in [1e-06, 1000] or None, got {self.d_ratio!r}")
+        for name, kind in _KINDS.items():
+            value = getattr(self, name)
+            if not (name == "d_ratio" and value is None):
+                object.__setattr__(self, name, kind.check(name, value))
 
     def radius(self, theta: float) -> float:
         """Eq. 1: R(theta) = R0 rho^(theta / 360), theta in degrees."""
@@ -55,3 +49,8 @@ class HelicoSpiral:
         r, t = self.radius(theta), math.radians(theta)
         return r * math.cos(t), self.height(theta), -r * math.sin(t)
 
+
+
+#: What each parameter may be (d_ratio may also be None).
+_KINDS = {"beta": Number(0.1, 89.9), "rho": Number(1.000001, 1e3), "r0": positive(),
+          "d_ratio": Number(1e-6, 1e3)}

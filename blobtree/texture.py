@@ -24,7 +24,6 @@ import base64
 import hashlib
 import io
 import math
-import numbers
 import os
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
@@ -32,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from .checks import Integer, Number, positive, short_repr
 from .spiral import HelicoSpiral
 
 #: Largest theta_max of a bounding surface, in degrees (100 turns: the nearest-whorl search
@@ -44,14 +44,6 @@ MAX_SIDE = 4096
 
 TextureSource = (str | os.PathLike | io.BytesIO | np.ndarray
                  | Callable[[np.ndarray, np.ndarray], Any])
-
-
-def _in_range(name: str, value: Any, lo: float, hi: float) -> float:
-    if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real) \
-            or not math.isfinite(value) or not lo <= value <= hi:
-        raise ValueError(f"{name} must be a finite number in [{lo:g}, {hi:g}], got "
-                         f"{str(value)[:60]}")
-    return float(value)
 
 
 def load_image(source: TextureSource) -> np.ndarray:
@@ -73,8 +65,10 @@ def load_image(source: TextureSource) -> np.ndarray:
                     raise ValueError(f"image must have sides in [1, {MAX_SIDE}] pixels, got "
                                      f"{im.size[0]}x{im.size[1]}")
                 arr = np.asarray(im.convert("RGB"))
-        except (FileNotFoundError, UnidentifiedImageError, OSError, Image.DecompressionBombError
-                ) as e:
+        except Image.DecompressionBombError:
+            raise ValueError(f"image must have sides in [1, {MAX_SIDE}] pixels; this one claims "
+                             "far more") from None
+        except (FileNotFoundError, UnidentifiedImageError, OSError) as e:
             name = source if isinstance(source, str | os.PathLike) else "the image data"
             raise ValueError(f"image: cannot read {str(name)[:80]}: {e}") from None
     else:
@@ -153,6 +147,13 @@ def turn(y: np.ndarray, x: np.ndarray) -> np.ndarray:
     return np.mod(np.arctan2(y, x) / (2.0 * math.pi), 1.0)
 
 
+#: What each number of a bounding-surface mapping may be.
+_SURFACE_KINDS = {"u_period": positive(), "u_start": Number(-1e6, 1e6),
+                  "radius_factor": Number(1e-3, 1e3), "theta_max": Number(1e-6, MAX_THETA),
+                  "step": Number(1e-6, 1e3), "gradient_weight": Number(0.0, 1.0),
+                  "max_steps": Integer(0, 10_000)}
+
+
 @dataclass(frozen=True)
 class HelicoSurface:
     """A bounding surface for :class:`Texture`: a tube of radius ``radius_factor * D(theta)``
@@ -177,16 +178,8 @@ class HelicoSurface:
     def __post_init__(self) -> None:
         if not isinstance(self.spiral, HelicoSpiral):
             raise ValueError(f"spiral must be a HelicoSpiral, got {type(self.spiral).__name__}")
-        _in_range("u_period", self.u_period, 1e-6, 1e6)
-        _in_range("u_start", self.u_start, -1e6, 1e6)
-        _in_range("radius_factor", self.radius_factor, 1e-3, 1e3)
-        _in_range("theta_max", self.theta_max, 1e-6, MAX_THETA)
-        _in_range("step", self.step, 1e-6, 1e3)
-        _in_range("gradient_weight", self.gradient_weight, 0.0, 1.0)
-        if isinstance(self.max_steps, bool) or not isinstance(self.max_steps, int) \
-                or not 0 <= self.max_steps <= 10_000:
-            raise ValueError(f"max_steps must be an integer in [0, 10000], got "
-                             f"{str(self.max_steps)[:60]}")
+        for name, kind in _SURFACE_KINDS.items():
+            object.__setattr__(self, name, kind.check(name, getattr(self, name)))
 
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
@@ -198,18 +191,14 @@ class HelicoSurface:
         """From :meth:`to_dict`'s form; ValueError naming what is missing or unknown."""
         d = dict(d)
         fields = set(cls.__dataclass_fields__)
-        unknown = sorted(set(d) - fields)
-        if unknown:
-            raise ValueError(f"unknown HelicoSurface field(s) {unknown}; known: {sorted(fields)}")
-        spiral = d.get("spiral", {})
+        if set(d) != fields:
+            raise ValueError(f"a helico mapping needs exactly the fields {sorted(fields)}, got "
+                             f"{short_repr(sorted(d))}")
+        spiral = d["spiral"]
         sfields = set(HelicoSpiral.__dataclass_fields__)
-        if not isinstance(spiral, dict) or set(spiral) - sfields:
-            raise ValueError(f"spiral must be an object with fields among {sorted(sfields)}, "
-                             f"got {str(spiral)[:60]}")
-        for key, value in [*d.items(), *spiral.items()]:
-            if key != "spiral" and value is not None and (
-                    isinstance(value, bool) or not isinstance(value, numbers.Real)):
-                raise ValueError(f"{key} must be a number, got {str(value)[:60]}")
+        if not isinstance(spiral, dict) or set(spiral) != sfields:
+            raise ValueError(f"spiral must be an object with exactly the fields {sorted(sfields)},"
+                             f" got {short_repr(spiral)}")
         d["spiral"] = HelicoSpiral(**spiral)
         return cls(**d)
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import base64
 import json
 
 import numpy as np
@@ -89,7 +90,13 @@ def _doc(root):
     (_doc({"type": "point", "params": {"center": [0, 0, 0], "radius": -1,
           "falloff": "soft_object"}}), "$.root.params.radius: radius must be"),
     ('{"format": "blobtree-scene", "version": 1, "root": {"type": "point", "params": '
-     '{"center": [NaN, 0, 0], "radius": 1, "falloff": "soft_object"}}}', "NaN"),
+     '{"center": [NaN, 0, 0], "radius": 1, "falloff": "soft_object"}}}',
+     "$.root.params.center[0]: NaN"),
+    ("[" * 100_000 + "]" * 100_000, "$: nested too deeply"),
+    (_doc({"type": "point", "params": {"center": [0, 0, 0], "radius": int("9" * 400),
+          "falloff": "soft_object"}}), "$.root.params.radius: radius must be"),
+    ('{"format": "blobtree-scene", "version": 1, "root": ' + "9" * 5000 + "}", "4300"),
+    (_doc({"type": "x" * 1_000_000}), "$.root.type: unknown node type 'xxx"),
     (_doc({"type": "translate", "params": {"offset": [0, 0, 0]}, "children": []}),
      "$.root.children"),
     (_doc({"type": "point", "params": {"center": [0, 0, 0], "radius": 1,
@@ -99,6 +106,7 @@ def test_malformed_files_name_the_path(text, where):
     with pytest.raises(SceneError) as e:
         loads(text)
     assert where in str(e.value)
+    assert len(str(e.value)) < 500  # values are quoted shortened, never whole
 
 
 def test_save_is_atomic(tmp_path, monkeypatch):
@@ -120,3 +128,40 @@ def test_load_never_executes_code(tmp_path):
     path.write_text(_doc({"type": "__import__('os').system('touch x')"}))
     with pytest.raises(SceneError, match="unknown node type"):
         bt.load(path)
+
+
+def _png_header(width: int, height: int) -> bytes:
+    """A PNG whose header claims width x height pixels (its data is a few bytes)."""
+    import struct
+    import zlib
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return (struct.pack(">I", len(data)) + kind + data
+                + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
+
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2,
+                                                                0, 0, 0))
+            + chunk(b"IDAT", zlib.compress(b"\x00" * 16)) + chunk(b"IEND", b""))
+
+
+@pytest.mark.parametrize("change, where", [
+    (lambda d, m, k: m.pop("spiral"), "mapping: a helico mapping needs exactly the fields"),
+    (lambda d, m, k: m["spiral"].pop("rho"), "spiral must be an object with exactly"),
+    (lambda d, m, k: m.update(theta_max=1e300), "theta_max must be a finite number >= 1e-06"),
+    (lambda d, m, k: m.update(max_steps=10**400), "max_steps must be an integer in"),
+    (lambda d, m, k: d["images"].update({k: base64.b64encode(_png_header(100_000, 100_000))
+                                         .decode()}), "image must have sides in [1, 4096]"),
+    (lambda d, m, k: d["images"].update({k: base64.b64encode(_png_header(5000, 1)).decode()}),
+     "got 5000x1"),
+])
+def test_bad_textures_in_scene_files_are_refused(change, where):
+    """A bounding-surface mapping with a field missing or out of range, or an image whose header
+    claims more pixels than allowed, is a SceneError naming the path, before any decoding."""
+    tree = bt.Texture(bt.Point(radius=1.0), image=np.zeros((4, 4, 3)),
+                      mapping=HelicoSurface())
+    doc = json.loads(dumps(tree))
+    node = next(n for n in doc["nodes"] if n["type"] == "texture")
+    change(doc, node["params"]["mapping"]["helico"], next(iter(doc["images"])))
+    with pytest.raises(SceneError) as e:
+        loads(json.dumps(doc))
+    assert where in str(e.value) and str(e.value).startswith("$.")

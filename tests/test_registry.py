@@ -128,6 +128,21 @@ def test_idempotent_operators_evaluate_a_repeated_child_once():
     np.testing.assert_allclose(n.field(x), bt.Point(radius=1.0).field(x))
 
 
+@settings(max_examples=max(5, settings.default.max_examples // 3))
+@given(trees(max_leaves=5))
+def test_a_shared_subtree_compiles_to_the_same_program_as_copies_of_it(t):
+    """The compiler emits a subtree met again in the same frame as a copy of its first
+    instructions (jumps and parameter offsets moved): the program is exactly the one separately
+    built copies give, where every node is met once."""
+    shared = bt.blend(t, t.translate(1.0, 0.0, 0.0), bt.union(t, t.scale(2.0)), t)
+    a, b, c, d = (loads(dumps(t)) for _ in range(4))
+    copies = bt.blend(a, b.translate(1.0, 0.0, 0.0), bt.union(c, t.scale(2.0)), d)
+    assert a is not b  # (each load builds its own nodes)
+    p, q = shared.program(), copies.program()
+    for name in ("code", "params", "boxes", "lips"):
+        np.testing.assert_array_equal(getattr(p, name), getattr(q, name), err_msg=name)
+
+
 def test_a_tree_too_large_to_expand_is_refused_with_its_size():
     n = bt.Point(radius=1.0)
     for _ in range(40):

@@ -9,12 +9,13 @@ from click.testing import CliRunner
 from PIL import Image
 
 import blobtree as bt
-from blobtree.cli.render_cmd import render
+from blobtree.cli.main import main
 
 
 def test_render_builtin_model(tmp_path):
     out = tmp_path / "w.png"
-    r = CliRunner().invoke(render, ["whorl126", "-o", str(out), "--size", "40x30", "--quiet"])
+    r = CliRunner().invoke(main, ["render", "whorl126", "-o", str(out), "--size", "40x30",
+                                  "--quiet"])
     assert r.exit_code == 0, r.output
     img = np.asarray(Image.open(out))
     assert img.shape == (30, 40, 3)
@@ -25,7 +26,7 @@ def test_render_scene_file_with_camera_options(tmp_path):
     scene = tmp_path / "s.json"
     bt.save(bt.Point(radius=2.0).color((0.0, 1.0, 0.0)), scene)
     out = tmp_path / "s.png"
-    r = CliRunner().invoke(render, [str(scene), "-o", str(out), "--size", "33x33", "--eye",
+    r = CliRunner().invoke(main, ["render", str(scene), "-o", str(out), "--size", "33x33", "--eye",
                                     "0,0,4", "--target", "0,0,0", "--fov", "40", "--background",
                                     "0,0,0", "--samples", "2", "--no-shadows", "--quiet"])
     assert r.exit_code == 0, r.output
@@ -44,16 +45,16 @@ def test_render_bad_arguments_are_clear_errors(tmp_path):
         (["--background", "255,0,0"], "background"),
         (["--samples", "0"], "samples"),
     ]:
-        r = CliRunner().invoke(render, ["whorl126", "-o", str(out), "--quiet", *args])
+        r = CliRunner().invoke(main, ["render", "whorl126", "-o", str(out), "--quiet", *args])
         assert r.exit_code != 0 and words in r.output, (args, r.output)
     assert not out.exists()
-    r = CliRunner().invoke(render, ["no-such-model", "-o", str(out), "--quiet"])
+    r = CliRunner().invoke(main, ["render", "no-such-model", "-o", str(out), "--quiet"])
     assert r.exit_code != 0 and "whorl126" in r.output
 
 
 def test_progress_and_timing_are_shown_unless_quiet(tmp_path):
     out = tmp_path / "p.png"
-    r = CliRunner().invoke(render, ["whorl126", "-o", str(out), "--size", "64x48", "--tile",
+    r = CliRunner().invoke(main, ["render", "whorl126", "-o", str(out), "--size", "64x48", "--tile",
                                     "16"])
     assert r.exit_code == 0, r.output
     assert "tile" in r.output  # the progress bar counts tiles
@@ -77,9 +78,9 @@ def test_ctrl_c_stops_the_render_and_writes_nothing(tmp_path, monkeypatch):
     monkeypatch.setattr(render_module, "trace_rect", interrupted)
     out = tmp_path / "c.png"
     args = ["whorl126", "-o", str(out), "--size", "64x64", "--tile", "16", "--quiet"]
-    r = CliRunner().invoke(render, args)
+    r = CliRunner().invoke(main, ["render", *args])
     assert r.exit_code == 130 and "interrupted; nothing written" in r.output
     assert not out.exists()
     done.clear()
-    r = CliRunner().invoke(render, [*args, "--checkpoint", str(tmp_path / "ck")])
+    r = CliRunner().invoke(main, ["render", *args, "--checkpoint", str(tmp_path / "ck")])
     assert r.exit_code == 130 and "--resume" in r.output and not out.exists()

@@ -14,6 +14,7 @@ from hypothesis import reject
 from hypothesis import strategies as st
 
 import blobtree as bt
+from blobtree import checks as C
 from blobtree.nodes import params as K
 from blobtree.spiral import HelicoSpiral
 from blobtree.texture import HelicoSurface
@@ -23,13 +24,13 @@ HELICO = HelicoSurface(spiral=HelicoSpiral(r0=0.3), radius_factor=1.0, theta_max
                        max_steps=8)
 
 
-def value(kind: K.Kind, children: int) -> st.SearchStrategy:
+def value(kind: C.Kind, children: int) -> st.SearchStrategy:
     """A strategy for one parameter of this kind (``children``: how many the node has)."""
-    if isinstance(kind, K.Number):
+    if isinstance(kind, C.Number):
         return st.floats(*kind.sample)
-    if isinstance(kind, K.Vec3):  # and RGB
+    if isinstance(kind, C.Vec3):  # and RGB
         return st.tuples(*[st.floats(*kind.sample)] * 3)
-    if isinstance(kind, K.Choice):
+    if isinstance(kind, C.Choice):
         return st.sampled_from(kind.options)
     if isinstance(kind, K.Axis):
         return st.sampled_from(["x", "y", "z", (1.0, 2.0, -0.5)])

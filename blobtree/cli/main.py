@@ -8,6 +8,7 @@ import click
 import numpy as np
 
 from .. import __version__
+from ..io import SceneError
 from ..nodes import Node
 from . import start_command
 from .figures_cmd import figures
@@ -15,8 +16,29 @@ from .mesh_cmd import mesh
 from .render_cmd import render
 from .scenes import BUILTIN, resolve_scene
 
+#: What a user's mistake raises (bad values, unreadable or unwritable files, scene documents too
+#: deep or too large): reported in one line, never as a traceback.
+USER_ERRORS = (ValueError, SceneError, OSError, RecursionError, OverflowError, MemoryError)
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+
+class _Commands(click.Group):
+    """The command group: a user's mistake is one line on stderr and exit code 1; Ctrl-C stops
+    any command with exit code 130 (outputs are written whole or not at all)."""
+
+    def invoke(self, ctx: click.Context):
+        try:
+            return super().invoke(ctx)
+        except KeyboardInterrupt:
+            click.echo("interrupted; nothing written", err=True)
+            ctx.exit(130)
+        except USER_ERRORS as exc:
+            message = str(exc) or type(exc).__name__
+            if isinstance(exc, RecursionError):
+                message = "the scene is nested too deeply to read"
+            raise click.ClickException(message[:2000]) from None
+
+
+@click.group(cls=_Commands, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="blobtree")
 def main() -> None:
     """Structured implicit modelling with the BlobTree.

@@ -8,7 +8,8 @@ from pathlib import Path
 import click
 
 from ..api import polygonize
-from ..mesh.export import FORMATS
+from ..files import check_writable
+from ..mesh.export import FORMATS, import_trimesh
 from . import compile_notice
 from .cluster import cluster, cluster_options
 from .scenes import resolve_scene
@@ -39,13 +40,15 @@ def mesh(scene: str, output: Path, resolution: int, scheduler: str | None,
         raise click.BadParameter(
             f"extension {output.suffix!r} is not one of {', '.join(FORMATS)}", param_hint="-o"
         )
+    try:
+        check_writable(output, "--output")
+    except ValueError as exc:
+        raise click.BadParameter(str(exc), param_hint="-o") from None
+    import_trimesh()  # now rather than after the work (and Ctrl-C-safe, see import_trimesh)
     tree = resolve_scene(scene)
     start = time.perf_counter()
-    try:
-        with cluster(scheduler, dask_workers) as client, compile_notice():
-            result = polygonize(tree, resolution=resolution, progress=True, scheduler=client)
-    except ValueError as exc:
-        raise click.UsageError(str(exc)) from None
+    with cluster(scheduler, dask_workers) as client, compile_notice():
+        result = polygonize(tree, resolution=resolution, progress=True, scheduler=client)
     result.save(output)
     seconds = time.perf_counter() - start
     click.echo(

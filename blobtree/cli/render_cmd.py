@@ -8,8 +8,10 @@ import time
 import click
 
 from ..api import render as render_image
+from ..files import check_writable
 from ..render import Camera, save_image
 from ..render.camera import default_camera
+from ..render.tiles import MAX_SIDE
 from . import compile_notice
 from .cluster import cluster, cluster_options
 from .scenes import resolve_scene, scene_camera
@@ -37,12 +39,22 @@ def _size(ctx, param, value):
         w, h = (int(v) for v in value.lower().split("x"))
     except ValueError:
         raise click.BadParameter(f"expected WIDTHxHEIGHT such as 800x600, got {value!r}") from None
+    if not (1 <= w <= MAX_SIDE and 1 <= h <= MAX_SIDE):
+        raise click.BadParameter(f"width and height must be in [1, {MAX_SIDE}], got {value!r}")
     return w, h
+
+
+def _output(ctx, param, value):
+    """A click callback refusing, before any work, an output file that could not be written."""
+    try:
+        return check_writable(value, "--output")
+    except ValueError as exc:
+        raise click.BadParameter(str(exc)) from None
 
 
 @click.command("render")
 @click.argument("scene")
-@click.option("-o", "--output", default="render.png", show_default=True,
+@click.option("-o", "--output", default="render.png", show_default=True, callback=_output,
               help="Image file (.png, .jpg, .tif, .bmp, .ppm); written whole or not at all.")
 @click.option("--size", default="800x800", show_default=True, callback=_size,
               help="Image size WIDTHxHEIGHT in pixels.")
@@ -88,8 +100,6 @@ def render(scene, output, size, samples, eye, target, up, fov, no_shadows, backg
                                tile=tile, progress=not quiet, scheduler=client,
                                checkpoint=checkpoint, resume=resume)
         save_image(img, output)
-    except ValueError as exc:
-        raise click.ClickException(str(exc)) from None
     except KeyboardInterrupt:
         kept = f"; finished tiles kept in {checkpoint} (--resume)" if checkpoint else ""
         click.echo(f"interrupted; nothing written{kept}", err=True)

@@ -59,7 +59,7 @@ GRID_MAX_INSTRUCTIONS = 4_000_000
 GROUP = 4
 
 #: Largest program a tree may expand to (a shared subtree is repeated at each of its places).
-MAX_INSTRUCTIONS = 20_000_000
+MAX_INSTRUCTIONS = 4_000_000
 
 
 @dataclass
@@ -154,6 +154,9 @@ class _Emitter:
         self.boxes: list[np.ndarray] = []
         self.lips: list[float] = []
         self.images: dict[str, int] = {}
+        #: (node id, frame, look) -> (code start, code end, params start, params end, box) of
+        #: its first emission: a shared subtree is emitted once and copied after
+        self.emitted: dict[tuple[int, bytes, int], tuple[int, int, int, int, geo.Box]] = {}
 
     def data(self, values) -> int:
         """Append raw parameter data (no instruction); return its offset."""
@@ -185,7 +188,31 @@ class _Emitter:
     # ---------------------------------------------------------------------------------------
     def emit(self, node: Node, M: np.ndarray, look: int = -1) -> geo.Box:
         """Emit ``node`` whose coordinates map to the current frame by M; return its frame box.
-        ``look``: params offset of the field-interpolated texture painting primitives, or -1."""
+        ``look``: params offset of the field-interpolated texture painting primitives, or -1.
+        A subtree met again in the same frame is a copy of its first instructions, so shared
+        subtrees cost their size once, then a copy per use."""
+        key = (id(node), M.tobytes(), look)
+        first = self.emitted.get(key)
+        if first is not None:
+            return self.repeat(*first)
+        c0, p0 = len(self.code), len(self.params)
+        box = self.emit_new(node, M, look)
+        self.emitted[key] = (c0, len(self.code), p0, len(self.params), box)
+        return box
+
+    def repeat(self, c0: int, c1: int, p0: int, p1: int, box: geo.Box) -> geo.Box:
+        """Copy instructions c0:c1 and their parameters p0:p1 to the end, their parameter
+        offsets and jump targets moved with them (image offsets stay: images are placed before
+        any instruction, see :func:`compile_tree`)."""
+        dc, dp = len(self.code) - c0, len(self.params) - p0
+        self.code.extend([op, at + dp, to + dc, n] for op, at, to, n in self.code[c0:c1])
+        self.params.extend(self.params[p0:p1])
+        self.boxes.extend(self.boxes[c0:c1])
+        self.lips.extend(self.lips[c0:c1])
+        return box
+
+    def emit_new(self, node: Node, M: np.ndarray, look: int) -> geo.Box:
+        """Emit ``node`` met for the first time in this frame (see :meth:`emit`)."""
         kind = node.KIND
         if kind == "affine":
             return self.emit(node.child, geo.compose(M, node.matrix), look)
@@ -291,20 +318,17 @@ def _box6(box: geo.Box | None) -> np.ndarray:
 
 def _stack_depth(code: np.ndarray) -> int:
     """Deepest value or point stack a run can reach (+1 spare row)."""
-    sp = pp = deepest = 0
-    kinds = KIND[code[:, 0]]
-    for (op, _, _, count), kind in zip(code, kinds, strict=True):
-        if kind == K_PRIMITIVE or kind == K_ZERO:
-            sp += 1
-        elif kind == K_PUSHPT:
-            pp += 1
-        elif kind == K_POPPT:
-            pp -= 1
-        elif kind == K_OPERATOR:
-            deepest = max(deepest, sp + STACK[op])
-            sp -= count - 1
-        deepest = max(deepest, sp, pp)
-    return int(deepest) + 2
+    if len(code) == 0:
+        return 2
+    op, count = code[:, 0], code[:, 3]
+    kinds = KIND[op]
+    operator = kinds == K_OPERATOR
+    push = (kinds == K_PRIMITIVE) | (kinds == K_ZERO)
+    dsp = np.where(push, 1, np.where(operator, 1 - count, 0))
+    sp = np.cumsum(dsp)  # value stack after each instruction
+    pp = np.cumsum((kinds == K_PUSHPT).astype(np.int64) - (kinds == K_POPPT))
+    working = np.where(operator, sp - dsp + STACK[op], 0)  # an operator's rows beyond its
+    return int(max(0, sp.max(), pp.max(), working.max())) + 2  # children while it runs
 
 
 def expanded_size(tree: Node) -> int:
@@ -321,11 +345,21 @@ def expanded_size(tree: Node) -> int:
     return size[id(tree)]
 
 
+def program_of(tree: Node | Program, name: str = "tree") -> Program:
+    """The compiled program of a tree, or a program (or any evaluator with ``program``-like
+    methods, as ``blobtree.distributed`` passes) as is; ValueError naming ``name`` otherwise."""
+    if hasattr(tree, "program"):
+        return tree.program()
+    if isinstance(tree, Program) or all(hasattr(tree, a) for a in ("bounds", "field", "evaluate")):
+        return tree
+    raise ValueError(f"{name} must be a BlobTree node or a Program, got {type(tree).__name__[:60]}")
+
+
 def compile_tree(tree: Node) -> Program:
     """Flatten ``tree`` into a :class:`Program`; TypeError for a node type without kernels,
     ValueError for a tree that expands past ``MAX_INSTRUCTIONS``."""
     if not isinstance(tree, Node):
-        raise ValueError(f"tree must be a BlobTree node, got {type(tree).__name__}")
+        raise ValueError(f"tree must be a BlobTree node, got {type(tree).__name__[:60]}")
     n = expanded_size(tree)
     if n > MAX_INSTRUCTIONS:
         raise ValueError(
@@ -333,5 +367,8 @@ def compile_tree(tree: Node) -> Program:
             "subtree shared in many places is repeated at each (e.g. blends of blends of one "
             "node); build it with fewer repetitions")
     em = _Emitter()
+    for node in tree.unique():  # images first, so no subtree's instructions hold one
+        if hasattr(node, "image_block"):
+            em.image_offset(node)
     em.emit(tree, geo.IDENTITY)
     return em.program(tree)

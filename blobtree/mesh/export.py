@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import os
+import signal
+import sys
+import threading
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -13,6 +16,26 @@ from ..files import atomic_path
 
 #: file extension -> trimesh export type
 FORMATS = {".ply": "ply", ".obj": "obj", ".stl": "stl", ".glb": "glb"}
+
+
+def import_trimesh():
+    """Import trimesh with Ctrl-C held back until the import is over, then raised.
+
+    trimesh imports its optional dependencies under ``except BaseException``, which would swallow
+    a KeyboardInterrupt arriving meanwhile and let a command go on to write its output.
+    """
+    if "trimesh" in sys.modules or threading.current_thread() is not threading.main_thread():
+        import trimesh
+        return trimesh
+    pressed: list[int] = []
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: pressed.append(signum))
+    try:
+        import trimesh
+    finally:
+        signal.signal(signal.SIGINT, signal.default_int_handler if previous is None else previous)
+    if pressed:
+        raise KeyboardInterrupt
+    return trimesh
 
 
 @njit(cache=True)
@@ -93,7 +116,7 @@ class Mesh:
 
     def to_trimesh(self):
         """The mesh as a ``trimesh.Trimesh`` (vertices kept as they are, not merged)."""
-        import trimesh
+        trimesh = import_trimesh()
 
         rgba = np.empty((len(self.vertices), 4), dtype=np.uint8)
         rgba[:, :3] = np.round(np.clip(self.colors, 0.0, 1.0) * 255.0)
@@ -117,6 +140,9 @@ class Mesh:
             raise ValueError(
                 f"path {str(path)!r} has extension {path.suffix!r}; allowed: {', '.join(FORMATS)}"
             )
+        if len(self.faces) == 0:
+            raise ValueError("the mesh has no triangles (the surface is absent or smaller than a "
+                             "cell: try a finer resolution); nothing written")
         data = self.to_trimesh().export(file_type=kind)
         if isinstance(data, str):
             data = data.encode()

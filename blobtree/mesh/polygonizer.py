@@ -23,6 +23,8 @@ import os
 
 import numpy as np
 
+from ..checks import Integer, Vec3, positive, short_repr
+from ..engine.program import program_of
 from ..nodes.base import ISO
 from ._kernels import block_triangles
 from ._lattice import (
@@ -36,17 +38,26 @@ from ._lattice import (
 )
 from .export import Mesh
 
+#: what the arguments may be
+RESOLUTION, CELL_SIZE, VEC3 = Integer(2, 2**20), positive(), Vec3()
 #: cells per side of the blocks of lattice storage
 BLOCK = 16
 #: cells per side of the smallest boxes culled
 FINE = 2
 #: regula falsi steps per vertex (a Newton step on the shading evaluation follows)
 REFINE_STEPS = 2
-#: bytes of peak memory per output triangle, mesh and working arrays (234 measured at N=1024)
-BYTES_PER_TRIANGLE = 250
-#: triangles per cell of face area of the boxes kept by the culling (0.4 to 1.7 measured at
-#: the finest level: the looser the Lipschitz bound, the more boxes per triangle)
-TRIANGLES_PER_CELL = 1.0
+#: peak memory per output triangle and per finest culled box (fitted to the whorl and the Murex
+#: at 512 and 1024 cells: 156 and 83 bytes)
+BYTES_PER_TRIANGLE, BYTES_PER_BOX = 160, 90
+#: triangles per cell of face area of the boxes kept above the finest level: 0.4 to 3 times the
+#: final count (the Murex at 512 and 2560 cells), so those levels refuse a job only when even a
+#: quarter of their estimate would not fit (the finest level's sampled estimate is within 3%)
+TRIANGLES_PER_CELL, COARSE_SLACK = 1.0, 4.0
+#: finest boxes sampled to estimate the triangles (the Lipschitz bound keeps 1 to 4 times more
+#: boxes than the surface crosses, so their count alone is a poor estimate)
+ESTIMATE_SAMPLE = 4096
+#: triangles per lattice cell the surface crosses; most a finest box (8 cells) can hold
+TRIANGLES_PER_CROSSED_CELL, MAX_TRIANGLES_PER_BOX = 2.0, 40
 
 
 def polygonize(
@@ -72,12 +83,13 @@ def polygonize(
     """
     from tqdm import tqdm
 
-    prog = tree.program() if hasattr(tree, "program") else tree
+    prog = program_of(tree)
     if bounds is None and not np.all(np.asarray(prog.bounds[1]) > np.asarray(prog.bounds[0])):
         return Mesh.empty()  # the tree's support is empty or flat: no solid
     lo, hi = _check_bounds(prog.bounds if bounds is None else bounds)
     h = _cell_size(lo, hi, resolution, cell_size)
-    budget = _available_memory() if max_memory is None else max_memory
+    budget = (_available_memory() if max_memory is None
+              else Integer(0).check("max_memory", max_memory))
     grid = _Grid(lo, hi, h, clip=bounds is not None)
     # the steps are uneven (and the first run compiles in the first): no rate, no estimate
     with tqdm(total=4, desc="mesh", disable=not progress, leave=False,
@@ -124,28 +136,23 @@ def _place(prog, grid: _Grid, keys, f0, f1, centres):
 
 
 def _check_bounds(bounds) -> tuple[np.ndarray, np.ndarray]:
-    try:
-        lo, hi = (np.asarray(b, dtype=np.float64).reshape(3) for b in bounds)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"bounds must be a pair (lo, hi) of 3-vectors, got {bounds!r}") from exc
-    if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)) and np.all(hi > lo)):
-        raise ValueError(f"bounds must be finite with hi > lo on every axis, got {bounds!r}")
+    """``bounds`` as two float arrays (lo, hi), or ValueError."""
+    if isinstance(bounds, str | bytes) or not hasattr(bounds, "__len__") or len(bounds) != 2:
+        raise ValueError(f"bounds must be a pair (lo, hi) of 3-vectors, got {short_repr(bounds)}")
+    lo, hi = (np.array(VEC3.check(f"bounds[{i}]", b)) for i, b in enumerate(bounds))
+    if not np.all(hi > lo):
+        raise ValueError(f"bounds must have hi > lo on every axis, got {short_repr(bounds)}")
     return lo, hi
 
 
 def _cell_size(lo, hi, resolution, cell_size) -> float:
+    """The cell edge from ``resolution`` or ``cell_size`` (default: 128 cells across)."""
     if resolution is not None and cell_size is not None:
         raise ValueError("give either resolution or cell_size, not both")
     if cell_size is not None:
-        if not (isinstance(cell_size, int | float) and math.isfinite(cell_size) and cell_size > 0):
-            raise ValueError(f"cell_size must be a finite number > 0, got {cell_size!r}")
-        return float(cell_size)
-    resolution = 128 if resolution is None else resolution
-    if isinstance(resolution, bool) or not isinstance(resolution, int | np.integer):
-        raise ValueError(f"resolution must be an integer >= 2, got {resolution!r}")
-    if resolution < 2:
-        raise ValueError(f"resolution must be an integer >= 2, got {resolution!r}")
-    return float(np.max(hi - lo)) / int(resolution)
+        return CELL_SIZE.check("cell_size", cell_size)
+    resolution = 128 if resolution is None else RESOLUTION.check("resolution", resolution)
+    return float(np.max(hi - lo)) / resolution
 
 
 def _available_memory() -> int:
@@ -212,20 +219,48 @@ def _cull(prog, grid: _Grid, budget: int):
         fc = prog.field(centre) if len(origins) else np.zeros(0)  # unclipped, as L bounds it
         keep = keep_boxes(lip, fc, half_diag, lo, hi, grid.lo, grid.hi, grid.clip, ISO)
         origins, kept_value, kept_lip = origins[keep], fc[keep], lip[keep]
-        estimate = len(origins) * size * size * TRIANGLES_PER_CELL * BYTES_PER_TRIANGLE
-        if estimate > budget:
-            raise ValueError(
-                f"resolution too large: the mesh would need about {estimate / 2**30:.1f} GiB "
-                f"(about {estimate / BYTES_PER_TRIANGLE / 1e6:.0f} M triangles at cell size "
-                f"{grid.h:.4g}), more than the {budget / 2**30:.1f} GiB available; "
-                "use a smaller resolution or larger cell_size"
-            )
+        if size > FINE:
+            triangles = len(origins) * size * size * TRIANGLES_PER_CELL
+            _check_budget(triangles, 0, grid.h, budget, slack=COARSE_SLACK)
+        elif len(origins) * (BYTES_PER_BOX + MAX_TRIANGLES_PER_BOX * BYTES_PER_TRIANGLE) > budget:
+            # (sampled only when the most the boxes can give might not fit)
+            _check_budget(_estimate_triangles(prog, grid, origins), len(origins), grid.h, budget)
         if size == FINE:
             centres = grid.origin + (origins + FINE // 2) * grid.h
             return origins, grid.clip_values(centres, kept_value)
         size //= 2
         origins, parent = split(origins, size, limit)
         parent_lip = kept_lip[parent]
+
+
+def _estimate_triangles(prog, grid: _Grid, origins: np.ndarray) -> float:
+    """Triangles the finest boxes at ``origins`` will give, from the lattice cells the surface
+    crosses in a fixed random sample of them."""
+    if len(origins) == 0:
+        return 0.0
+    pick = np.random.default_rng(0).choice(len(origins), min(len(origins), ESTIMATE_SAMPLE),
+                                           replace=False)
+    steps = np.arange(FINE + 1)
+    offsets = np.stack(np.meshgrid(steps, steps, steps, indexing="ij"), -1).reshape(-1, 3)
+    points = grid.origin + (origins[pick, None, :] + offsets[None]) * grid.h
+    points = points.reshape(-1, 3)
+    n = FINE + 1
+    inside = (grid.field(prog, points) >= ISO).reshape(len(pick), n, n, n)
+    corners = [inside[:, i:i + FINE, j:j + FINE, k:k + FINE]
+               for i in (0, 1) for j in (0, 1) for k in (0, 1)]
+    crossed = np.any(corners, axis=0) & ~np.all(corners, axis=0)
+    return crossed.sum() / len(pick) * len(origins) * TRIANGLES_PER_CROSSED_CELL
+
+
+def _check_budget(triangles: float, boxes: int, h: float, budget: int,
+                  slack: float = 1.0) -> None:
+    """ValueError if the estimated peak memory exceeds ``slack`` times ``budget`` bytes."""
+    estimate = triangles * BYTES_PER_TRIANGLE + boxes * BYTES_PER_BOX
+    if estimate > budget * slack:
+        raise ValueError(
+            f"resolution too large: the mesh would need about {estimate / 2**30:.1f} GiB "
+            f"(about {triangles / 1e6:.0f} M triangles at cell size {h:.4g}), more than the "
+            f"{budget / 2**30:.1f} GiB available; use a smaller resolution or larger cell_size")
 
 
 def _sample(prog, grid: _Grid, boxes):

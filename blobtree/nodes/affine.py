@@ -9,8 +9,9 @@ from functools import cached_property
 import numpy as np
 
 from .. import geometry as geo
+from ..checks import MAX_SIZE, MIN_SIZE, Vec3, angle
 from .base import Affine, Node, register
-from .params import MAX_SIZE, MIN_SIZE, Axis, Param, Vec3, angle
+from .params import Axis, Param
 
 
 @register

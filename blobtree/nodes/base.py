@@ -35,8 +35,9 @@ from typing import Any, ClassVar
 import numpy as np
 
 from .. import geometry as geo
+from ..checks import Choice
 from ..fields import FALLOFFS, SLOPE, falloff_array
-from .params import REQUIRED, Choice, Param
+from .params import REQUIRED, Param
 
 ISO = 0.5
 DEFAULT_COLOR = (0.8, 0.8, 0.8)
@@ -192,6 +193,11 @@ def _rebuild(cls: type[Node], children: tuple[Node, ...], values: dict[str, Any]
     return cls(*children, **values)
 
 
+def arity_words(lo: int, hi: int | None) -> str:
+    """How many children an ARITY allows, in words."""
+    return f"at least {lo}" if hi is None else f"exactly {lo}" if lo == hi else f"{lo} to {hi}"
+
+
 class Node:
     """A BlobTree node: an immutable value.  See the module docstring for what a type declares."""
 
@@ -232,7 +238,14 @@ class Node:
         cls = type(self)
         if cls.TYPE not in REGISTRY or REGISTRY[cls.TYPE] is not cls:
             raise TypeError(f"{cls.__name__} is not a registered node type")
-        bound = cls.__signature__.bind(self, *args, **kwargs)
+        lo, hi = cls.ARITY
+        nodes = next((i for i, a in enumerate(args) if not isinstance(a, Node)), len(args))
+        if hi is not None and nodes > hi:
+            raise ValueError(f"{cls.__name__} takes {arity_words(lo, hi)} children, got {nodes}")
+        try:
+            bound = cls.__signature__.bind(self, *args, **kwargs)
+        except TypeError as e:  # an unknown or missing argument: Python's error, with the type
+            raise TypeError(f"{cls.__name__}: {e}") from None
         bound.apply_defaults()
         values = dict(bound.arguments)
         values.pop("self")
@@ -242,10 +255,9 @@ class Node:
             children = tuple(values.pop("children", ()))
             if len(children) == 1 and isinstance(children[0], list | tuple):
                 children = tuple(children[0])
-        lo, hi = cls.ARITY
         if len(children) < lo or (hi is not None and len(children) > hi):
-            many = f"at least {lo}" if hi is None else (f"{lo}" if lo == hi else f"{lo}-{hi}")
-            raise ValueError(f"{cls.__name__} needs {many} children, got {len(children)}")
+            raise ValueError(f"{cls.__name__} takes {arity_words(lo, hi)} children, got "
+                             f"{len(children)}")
         name = "child" if hi == 1 else "children[{}]"
         self._set("children", tuple(require_node(name.format(i), c)
                                     for i, c in enumerate(children)))

@@ -8,9 +8,10 @@ from functools import cached_property
 import numpy as np
 
 from .. import geometry as geo
+from ..checks import AXES, Number, positive
 from ..jit import kernel
 from .base import Layout, WarpKernels, register
-from .params import AXES, Number, Param, positive
+from .params import Param
 from .warp import PERM_END, Warp
 
 LAYOUT = Layout(PERM_END, k=1, length=1)

@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..checks import RGB
 from ..jit import kernel
 from .base import Layout, Paint, PaintKernels, register
-from .params import RGB, Param
+from .params import Param
 
 LAYOUT = Layout(0, rgb=3)
 (COLOR,) = LAYOUT.offsets

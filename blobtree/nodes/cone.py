@@ -8,6 +8,7 @@ import numpy as np
 
 from .. import geometry as geo
 from .. import texture as tex
+from ..checks import Vec3, positive
 from ..fields import SLOPE
 from ..jit import kernel
 from . import kmath
@@ -20,7 +21,7 @@ from .base import (
     PrimitiveKernels,
     register,
 )
-from .params import Param, Vec3, positive
+from .params import Param
 
 LAYOUT = Layout(GEOMETRY, a=3, b=3, radius_a=1, radius_b=1, frame=6)
 A, B, RA, RB, FRAME = LAYOUT.offsets

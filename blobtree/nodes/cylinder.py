@@ -8,10 +8,11 @@ import numpy as np
 
 from .. import geometry as geo
 from .. import texture as tex
+from ..checks import Vec3, positive
 from ..jit import kernel
 from . import kmath
 from .base import FALLOFF_PARAM, GEOMETRY, RADIUS, Layout, Primitive, PrimitiveKernels, register
-from .params import Param, Vec3, positive
+from .params import Param
 
 LAYOUT = Layout(GEOMETRY, a=3, b=3, cylinder_radius=1, frame=6)
 A, B, CYL, FRAME = LAYOUT.offsets

@@ -8,6 +8,7 @@ import math
 import numpy as np
 
 from .. import texture as tex
+from ..checks import MAX_SIZE, MIN_SIZE, Vec3
 from ..fields import SLOPE
 from ..jit import kernel
 from . import kmath
@@ -20,7 +21,7 @@ from .base import (
     PrimitiveKernels,
     register,
 )
-from .params import MAX_SIZE, MIN_SIZE, Param, Vec3
+from .params import Param
 
 # Where the ellipsoid's own numbers sit in the program, after the primitive header.
 LAYOUT = Layout(GEOMETRY, center=3, radii=3)

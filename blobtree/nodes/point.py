@@ -8,6 +8,7 @@ import numpy as np
 
 from .. import geometry as geo
 from .. import texture as tex
+from ..checks import Vec3, positive
 from ..jit import kernel
 from . import kmath
 from .base import (
@@ -20,7 +21,7 @@ from .base import (
     PrimitiveKernels,
     register,
 )
-from .params import Param, Vec3, positive
+from .params import Param
 
 LAYOUT = Layout(GEOMETRY, center=3)
 (CENTER,) = LAYOUT.offsets

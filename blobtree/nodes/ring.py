@@ -9,10 +9,11 @@ import numpy as np
 
 from .. import geometry as geo
 from .. import texture as tex
+from ..checks import Vec3, positive
 from ..jit import kernel
 from . import kmath
 from .base import FALLOFF_PARAM, GEOMETRY, RADIUS, Layout, Primitive, PrimitiveKernels, register
-from .params import Param, Vec3, positive
+from .params import Param
 
 LAYOUT = Layout(GEOMETRY, ring=1, center=3)
 RING, CENTER = LAYOUT.offsets

@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..checks import Number
 from ..jit import kernel
 from .base import Node, Operator, OperatorKernels, register, weighted_color
-from .params import Number, Param
+from .params import Param
 
 LARGEST_N = 1e6
 

@@ -6,9 +6,10 @@ from functools import cached_property
 
 import numpy as np
 
+from ..checks import AXES, MAX_SIZE, Number
 from ..jit import kernel
 from .base import Layout, WarpKernels, register
-from .params import AXES, MAX_SIZE, Number, Param
+from .params import Param
 from .warp import PERM_END, AxialWarp
 
 LAYOUT = Layout(PERM_END, rate=1, t0=1, t1=1)

@@ -11,10 +11,11 @@ import numpy as np
 
 from .. import geometry as geo
 from .. import texture as tex
+from ..checks import Choice
 from ..jit import kernel
 from . import kmath
 from .base import Layout, Paint, PaintKernels, register
-from .params import Choice, Image, Mapping, Param
+from .params import Image, Mapping, Param
 
 LAYOUT = Layout(0, to_local=12, normal_map=9, r0=1, rho=1, cot_beta=1, d_over_r=1,
                 theta_max=1, u_period=1, u_start=1, radius_factor=1, gradient_weight=1, step=1,

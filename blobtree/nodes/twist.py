@@ -7,9 +7,10 @@ from functools import cached_property
 
 import numpy as np
 
+from ..checks import AXES, angle
 from ..jit import kernel
 from .base import Layout, WarpKernels, register
-from .params import AXES, Param, angle
+from .params import Param
 from .warp import PERM_END, AxialWarp
 
 LAYOUT = Layout(PERM_END, k=1)

@@ -17,6 +17,7 @@ import numba
 import numpy as np
 from tqdm import tqdm
 
+from ..engine.program import program_of
 from ..parallel import parallel_for
 from .camera import Camera, default_camera
 from .checkpoint import Checkpoint, job_key
@@ -46,11 +47,6 @@ def tiles(width: int, height: int, size: int = TILE) -> Iterator[tuple[int, int,
             yield x0, y0, min(x0 + size, width), min(y0 + size, height)
 
 
-def _program(tree):
-    """The compiled program of a tree (or a program passed as is)."""
-    return tree.program() if hasattr(tree, "program") else tree
-
-
 def render(tree, width: int, height: int, camera: Camera | None = None,
            lights: Sequence[Light] | None = None, samples: int = 1, shadows: bool = True,
            background: tuple[float, float, float] = (1.0, 1.0, 1.0), *,
@@ -77,7 +73,7 @@ def render(tree, width: int, height: int, camera: Camera | None = None,
         threads = numba.get_num_threads()
     if not (isinstance(threads, int) and threads >= 1):
         raise ValueError(f"threads must be an integer >= 1, got {threads!r}")
-    prog = _program(tree)
+    prog = program_of(tree)
     if camera is None:
         camera = default_camera(prog, width, height)
     elif not isinstance(camera, Camera):
@@ -136,7 +132,7 @@ def intersect(tree, origins: np.ndarray, directions: np.ndarray,
 
     ``origins`` and ``directions`` are (N, 3); ``tmax`` caps t (a scalar or (N,)).
     """
-    prog = _program(tree)
+    prog = program_of(tree)
     o = np.ascontiguousarray(origins, dtype=np.float64)
     d = np.ascontiguousarray(directions, dtype=np.float64)
     if o.ndim != 2 or o.shape[1] != 3 or not np.all(np.isfinite(o)):

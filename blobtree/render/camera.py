@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..nodes.params import RGB, Number, Vec3
+from ..checks import RGB, Number, Vec3
 
 #: Camera and light positions may lie this far from the origin.
 MAX_POSITION = 1e9

@@ -6,9 +6,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..checks import Number
 from ..engine import interp
 from ..jit import kernel
-from ..nodes.params import Number
 from .camera import Camera, as_color, as_vec3
 from .trace import clip_box, trace_from_local
 

@@ -12,9 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..checks import Integer, Number
 from ..engine.specialize import specialize
 from ..jit import kernel
-from ..nodes.params import Integer, Number
 from .camera import Camera, as_color
 from .shade import Light, linear_to_srgb_byte, pack_lights, shade, srgb_to_linear_array
 from .trace import clip_box, march_cone, trace_from_local
