@@ -48,8 +48,10 @@ def fuzz(name: str) -> settings:
 def _compiled():
     """Compile the kernels before the deadlines start counting."""
     tree = bt.blend(bt.Point(radius=1.0), bt.Point(radius=1.0, center=(0.5, 0.0, 0.0)))
-    bt.render(tree, 4, 4)
+    for samples, shadows in ((1, True), (2, False)):
+        bt.render(tree, 4, 4, samples=samples, shadows=shadows, threads=2)
     bt.polygonize(tree, 4)
+    bt.polygonize(tree, 4, bounds=((-1.0, -1.0, -1.0), (1.5, 1.0, 1.0)))
 
 
 JUNK = st.one_of(
@@ -67,9 +69,15 @@ JUNK = st.one_of(
 )
 
 
-def _maybe(good: st.SearchStrategy) -> st.SearchStrategy:
-    """Mostly good values, sometimes junk (so that most calls have one bad part at most)."""
-    return st.one_of(good, good, good, JUNK)
+@st.composite
+def one_bad(draw, **good: st.SearchStrategy) -> dict:
+    """Arguments drawn from ``good``, but for one of them (in about two calls of three) junk:
+    so that both working calls and each kind of refusal are reached."""
+    names = sorted(good)
+    bad = draw(st.sampled_from([None, *names]) if names else st.none())
+    if bad is not None and draw(st.integers(0, 2)) == 0:
+        bad = None
+    return {n: draw(JUNK if n == bad else good[n]) for n in names}
 
 
 def _point(r: float = 1.0, x: float = 0.0) -> bt.Node:
@@ -98,8 +106,9 @@ def node_calls(draw):
                            st.just(_point()), JUNK) if draw(st.integers(0, 9)) == 0
                  else st.builds(_point, st.floats(0.3, 1.5), st.floats(-1.0, 1.0)))
             for _ in range(n)]
-    kwargs = {p.name: draw(_maybe(value(p.kind, max(n, 2)))) for p in cls.PARAMS
-              if draw(st.integers(0, 19)) != 0}  # a missing parameter, sometimes
+    kwargs = draw(one_bad(**{p.name: value(p.kind, max(n, 2)) for p in cls.PARAMS}))
+    if kwargs and draw(st.integers(0, 19)) == 0:  # a missing parameter, sometimes
+        del kwargs[draw(st.sampled_from(sorted(kwargs)))]
     return cls, kids, kwargs
 
 
@@ -126,34 +135,29 @@ SMALL_TREE = bt.blend(_point(0.8), _point(0.8, 0.6)).color((0.2, 0.6, 0.9))
 
 
 @fuzz("render")
-@given(width=_maybe(st.integers(1, 6)), height=_maybe(st.integers(1, 6)),
-       samples=_maybe(st.integers(1, 2)), shadows=_maybe(st.booleans()),
-       background=_maybe(st.tuples(*[st.floats(0.0, 1.0)] * 3)),
-       tile=_maybe(st.integers(1, 8)), threads=_maybe(st.integers(1, 2)),
-       tree=st.one_of(st.just(SMALL_TREE), st.just(SMALL_TREE), JUNK))
-def test_render_works_or_refuses(width, height, samples, shadows, background, tile, threads,
-                                 tree):
+@given(one_bad(width=st.integers(1, 6), height=st.integers(1, 6), samples=st.integers(1, 2),
+               shadows=st.booleans(), background=st.tuples(*[st.floats(0.0, 1.0)] * 3),
+               tile=st.integers(1, 8), threads=st.integers(1, 2), tree=st.just(SMALL_TREE)))
+def test_render_works_or_refuses(args):
     try:
-        img = bt.render(tree, width, height, samples=samples, shadows=shadows,
-                        background=background, tile=tile, threads=threads)
+        img = bt.render(**args)
     except ValueError:
         event("refused")
         return
     event("rendered")
-    assert img.shape == (height, width, 3) and img.dtype == np.uint8
+    assert img.shape == (args["height"], args["width"], 3) and img.dtype == np.uint8
 
 
 @fuzz("polygonize")
-@given(resolution=_maybe(st.one_of(st.none(), st.integers(2, 10), st.just(10**9))),
-       cell_size=_maybe(st.one_of(st.none(), st.none(), st.floats(0.2, 1.0))),
-       bounds=_maybe(st.one_of(st.none(), st.none(), st.just(((-1.0, -1.0, -1.0),
-                                                                (1.5, 1.0, 1.0))))),
-       max_memory=_maybe(st.one_of(st.none(), st.integers(0, 10**9))),
-       tree=st.one_of(st.just(SMALL_TREE), st.just(SMALL_TREE), JUNK))
-def test_polygonize_works_or_refuses(resolution, cell_size, bounds, max_memory, tree):
+@given(one_bad(resolution=st.one_of(st.none(), st.integers(2, 10), st.just(10**9)),
+               cell_size=st.none(),  # (good only without resolution: junk tries it)
+               bounds=st.one_of(st.none(), st.none(), st.just(((-1.0, -1.0, -1.0),
+                                                                (1.5, 1.0, 1.0)))),
+               max_memory=st.one_of(st.none(), st.integers(0, 10**9)),
+               tree=st.just(SMALL_TREE)))
+def test_polygonize_works_or_refuses(args):
     try:
-        mesh = bt.polygonize(tree, resolution, cell_size=cell_size, bounds=bounds,
-                             max_memory=max_memory)
+        mesh = bt.polygonize(**args)
     except ValueError:
         event("refused")
         return
@@ -162,28 +166,28 @@ def test_polygonize_works_or_refuses(resolution, cell_size, bounds, max_memory, 
     assert np.all(np.isfinite(mesh.vertices))
 
 
+VEC = st.tuples(*[st.floats(-5.0, 5.0)] * 3)
+COLOUR = st.tuples(*[st.floats(0.0, 1.0)] * 3)
+
+
 @fuzz("camera")
-@given(which=st.sampled_from(["camera", "light", "settings"]), data=st.data())
-def test_cameras_lights_and_settings_work_or_refuse(which, data):
-    vec = _maybe(st.tuples(*[st.floats(-5.0, 5.0)] * 3))
+@given(st.one_of(
+    st.tuples(st.just(bt.Camera), one_bad(eye=VEC, target=VEC, up=VEC,
+                                          fov=st.floats(1.0, 170.0))),
+    st.tuples(st.just(bt.Light), one_bad(direction=VEC, color=COLOUR,
+                                         intensity=st.floats(0.0, 3.0))),
+    st.tuples(st.just(bt.Light), one_bad(position=VEC, intensity=st.floats(0.0, 3.0))),
+    st.tuples(st.just(bt.RenderSettings), one_bad(
+        width=st.integers(1, 64), height=st.integers(1, 64), samples=st.integers(1, 4),
+        shadows=st.booleans(), background=COLOUR))))
+def test_cameras_lights_and_settings_work_or_refuse(call):
+    make, kwargs = call
     try:
-        if which == "camera":
-            bt.Camera(eye=data.draw(vec), target=data.draw(vec), up=data.draw(vec),
-                      fov=data.draw(_maybe(st.floats(1.0, 170.0))))
-        elif which == "light":
-            kw = {k: data.draw(vec) for k in ("direction", "position", "color")
-                  if data.draw(st.booleans())}
-            bt.Light(**kw, intensity=data.draw(_maybe(st.floats(0.0, 3.0))))
-        else:
-            bt.RenderSettings(width=data.draw(_maybe(st.integers(1, 64))),
-                              height=data.draw(_maybe(st.integers(1, 64))),
-                              samples=data.draw(_maybe(st.integers(1, 4))),
-                              shadows=data.draw(_maybe(st.booleans())),
-                              background=data.draw(_maybe(st.tuples(*[st.floats(0, 1)] * 3))))
+        make(**kwargs)
     except ValueError:
-        event(f"{which} refused")
+        event(f"{make.__name__} refused")
         return
-    event(f"{which} made")
+    event(f"{make.__name__} made")
 
 
 # ----- scene documents --------------------------------------------------------------------------
@@ -228,8 +232,12 @@ def mutated_scenes(draw):
     for _ in range(draw(st.integers(1, 3))):
         spots = list(_paths(doc))
         container, key = draw(st.sampled_from(spots))
-        action = draw(st.sampled_from(["replace", "replace", "remove", "add"]))
-        if action == "replace":
+        action = draw(st.sampled_from(["scale", "scale", "replace", "remove", "add"]))
+        number = isinstance(container[key], float | int) and not isinstance(container[key], bool)
+        if action == "scale" and number:  # a plausible edit: likely still loads, or is refused
+            factor = draw(st.sampled_from([-1, 0.5, 2, 10, 1e3]))
+            container[key] = container[key] * (factor if abs(container[key]) < 1e300 else 1)
+        elif action in ("replace", "scale"):
             container[key] = draw(JSON_JUNK)
         elif action == "remove":
             del container[key]
@@ -268,7 +276,7 @@ def test_deep_and_wide_trees_build_save_and_load_or_refuse(depth, width, shared)
         for i in range(depth):
             tree = bt.blend(tree, tree) if i < shared else tree.translate((0.0, 0.001, 0))
     except ValueError as e:
-        assert "levels deep" in str(e) and depth + 1 > MAX_DEPTH, e
+        assert "levels deep" in str(e) and depth + 2 > MAX_DEPTH, e  # (+ blend + points)
         return
     assert loads(dumps(tree)) == tree
     try:
