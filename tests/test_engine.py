@@ -244,3 +244,23 @@ def test_point_directional_bound_is_the_largest_slope(falloff, radius, seed):
         slope = np.abs(tree.reference(Q)[1] @ d).max()
         assert slope <= bound * (1 + 1e-9) + 1e-12
         assert bound <= slope * 1.01 + 1e-9
+
+
+def test_concurrent_evaluation_from_python_threads_is_safe():
+    """Several Python threads evaluating (and rendering) at once get what one thread gets:
+    kernels run in blobtree's own pool, not a numba threading layer (docs/limits.md)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    tree = bt.models.whorl126()
+    prog = tree.program()
+    pts = sample_points(tree, 50_000, 0)
+    alone = prog.evaluate(pts)
+    image = bt.render(tree, 24, 16)
+    with ThreadPoolExecutor(4) as pool:
+        fields = list(pool.map(lambda _: prog.evaluate(pts), range(4)))
+        images = list(pool.map(lambda _: bt.render(tree, 24, 16), range(4)))
+    for got in fields:
+        for a, b in zip(got, alone, strict=True):
+            np.testing.assert_array_equal(a, b)
+    for got in images:
+        np.testing.assert_array_equal(got, image)
