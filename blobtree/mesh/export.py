@@ -19,22 +19,24 @@ FORMATS = {".ply": "ply", ".obj": "obj", ".stl": "stl", ".glb": "glb"}
 
 
 def import_trimesh():
-    """Import trimesh with Ctrl-C held back until the import is over, then raised.
+    """Import trimesh with Ctrl-C held back until the import is over, then delivered.
 
     trimesh imports its optional dependencies under ``except BaseException``, which would swallow
     a KeyboardInterrupt arriving meanwhile and let a command go on to write its output.
     """
-    if "trimesh" in sys.modules or threading.current_thread() is not threading.main_thread():
-        import trimesh
+    previous = signal.getsignal(signal.SIGINT)
+    if "trimesh" in sys.modules or not callable(previous) \
+            or threading.current_thread() is not threading.main_thread():
+        import trimesh  # (SIGINT ignored or default: nothing to hold back)
         return trimesh
     pressed: list[int] = []
-    previous = signal.signal(signal.SIGINT, lambda signum, frame: pressed.append(signum))
+    signal.signal(signal.SIGINT, lambda signum, frame: pressed.append(signum))
     try:
         import trimesh
     finally:
-        signal.signal(signal.SIGINT, signal.default_int_handler if previous is None else previous)
+        signal.signal(signal.SIGINT, previous)
     if pressed:
-        raise KeyboardInterrupt
+        previous(signal.SIGINT, None)  # the default handler raises KeyboardInterrupt
     return trimesh
 
 
