@@ -10,6 +10,7 @@ import time
 
 import blobtree as bt
 from blobtree.models.figures import FIGURES
+from blobtree.render.camera import framed_camera
 
 
 def main() -> None:
@@ -20,7 +21,9 @@ def main() -> None:
     times = {}
     for textured in (False, True):
         shell = bt.models.murex(textured=textured)
-        camera = bt.Camera(**FIGURES["14"].camera(shell))
+        fig = FIGURES["14"]
+        camera = framed_camera(shell.program(), args.size, args.size, view=fig.view, up=fig.up,
+                               fov=fig.fov)
         bt.render(shell, 64, 64, camera=camera, progress=False)  # warm up
         best = float("inf")
         for _ in range(args.repeat):

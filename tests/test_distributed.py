@@ -15,7 +15,7 @@ from click.testing import CliRunner
 import blobtree as bt
 import blobtree.distributed as bd
 from blobtree.cli.main import main
-from blobtree.render import RenderSettings, tiles
+from blobtree.render import LOOKS, RenderSettings, tiles
 from blobtree.render.camera import default_camera
 from blobtree.render.checkpoint import Checkpoint
 from blobtree.render.shade import default_lights
@@ -84,7 +84,7 @@ def test_mesh_equals_local_up_to_vertex_order(client):
 
 def test_killed_worker_does_not_change_the_image():
     tree = bt.models.whorl126()
-    settings = RenderSettings(width=96, height=96, samples=4)
+    settings = RenderSettings(width=96, height=96, samples=4, **LOOKS["studio"])
     camera = default_camera(tree.program(), 96, 96)
     lights = default_lights(camera)
     expected = bt.render(tree, 96, 96, camera=camera, lights=lights, samples=4)

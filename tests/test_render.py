@@ -10,6 +10,7 @@ from PIL import Image
 
 import blobtree as bt
 from blobtree.render import (
+    LOOKS,
     Camera,
     Light,
     RenderSettings,
@@ -209,7 +210,7 @@ def test_tiles_assemble_into_identical_bytes(samples):
     w, h = 40, 30
     whole = render(prog, w, h, samples=samples)
     cam = default_camera(prog, w, h)
-    settings = RenderSettings(width=w, height=h, samples=samples)
+    settings = RenderSettings(width=w, height=h, samples=samples, **LOOKS["studio"])
     lights = default_lights(cam)
     out = np.zeros_like(whole)
     for x0, y0, x1, y1 in [(0, 0, 17, 11), (17, 0, 40, 11), (0, 11, 40, 30)]:

@@ -8,7 +8,8 @@ from pathlib import Path
 import click
 
 from ..models.figures import FIGURES, TEXTURE_FIGURES
-from ..render import Camera, render, save_image
+from ..render import LOOKS, render, save_image
+from ..render.camera import framed_camera
 from . import compile_notice
 
 ALL = sorted([*FIGURES, *TEXTURE_FIGURES], key=int)
@@ -25,11 +26,13 @@ SEEDED = {"8", "9", "11", "14"}
 @click.option("--samples", default=2, show_default=True, type=click.IntRange(1, 64),
               help="Anti-aliasing samples per pixel.")
 @click.option("--shadows/--no-shadows", default=True, show_default=True)
+@click.option("--look", type=click.Choice(sorted(LOOKS)), default="studio", show_default=True,
+              help="paper: the plain white style of the paper's own figures.")
 @click.option("--only", multiple=True, type=click.Choice(ALL),
               help="Only these figure numbers (repeatable).")
 @click.option("--seed", default=0, show_default=True, help="Seed of the shell's randomness.")
-def figures(out_dir: Path, height: int, samples: int, shadows: bool, only: tuple[str, ...],
-            seed: int) -> None:
+def figures(out_dir: Path, height: int, samples: int, shadows: bool, look: str,
+            only: tuple[str, ...], seed: int) -> None:
     """Render the paper's figures (3-11 and 14 ray traced; 12, the textures, drawn)."""
     out_dir.mkdir(parents=True, exist_ok=True)
     for key in only or ALL:
@@ -42,9 +45,10 @@ def figures(out_dir: Path, height: int, samples: int, shadows: bool, only: tuple
             tree = fig.build(seed) if key in SEEDED else fig.build()
             aspect = fig.aspect(tree)
             width = max(16, round(height * aspect))
-            camera = Camera(**fig.camera(tree, aspect=width / height))
+            camera = framed_camera(tree.program(), width, height, view=fig.view, up=fig.up,
+                                   fov=fig.fov)
             with compile_notice():
                 img = render(tree, width, height, camera=camera, samples=samples,
-                             shadows=shadows, background=(1.0, 1.0, 1.0))
+                             shadows=shadows, look=look)
             save_image(img, path)
         click.echo(f"figure {key}: {path} ({time.perf_counter() - start:.1f} s)")

@@ -9,7 +9,7 @@ import click
 
 from ..api import render as render_image
 from ..files import check_writable
-from ..render import Camera, save_image
+from ..render import LOOKS, Camera, save_image
 from ..render.camera import default_camera
 from ..render.tiles import MAX_SIDE
 from . import compile_notice
@@ -65,8 +65,11 @@ def _output(ctx, param, value):
               help="Camera up vector x,y,z.")
 @click.option("--fov", type=float, default=None, help="Vertical field of view, degrees.")
 @click.option("--no-shadows", is_flag=True, help="Skip shadow rays.")
-@click.option("--background", default="1,1,1", show_default=True, callback=_floats(3),
-              help="Background colour r,g,b in [0, 1].")
+@click.option("--look", type=click.Choice(sorted(LOOKS)), default="studio", show_default=True,
+              help="studio: soft backdrop, soft shadows, ambient occlusion; glossy: the same, "
+                   "polished; paper: the plain style of the paper's figures.")
+@click.option("--background", callback=_floats(3),
+              help="Plain background colour r,g,b in [0, 1] instead of the look's backdrop.")
 @click.option("--tile", default=64, show_default=True, help="Tile side in pixels.")
 @click.option("--checkpoint", type=click.Path(file_okay=False),
               help="Directory keeping each finished tile, so an interrupted render can resume.")
@@ -74,8 +77,8 @@ def _output(ctx, param, value):
               help="Reuse the tiles in --checkpoint left by an interrupted run of this render.")
 @cluster_options
 @click.option("--quiet", is_flag=True, help="No progress bar or timing.")
-def render(scene, output, size, samples, eye, target, up, fov, no_shadows, background, tile,
-           checkpoint, resume, scheduler, dask_workers, quiet) -> None:
+def render(scene, output, size, samples, eye, target, up, fov, no_shadows, look, background,
+           tile, checkpoint, resume, scheduler, dask_workers, quiet) -> None:
     """Ray-trace SCENE (a built-in model name or a JSON scene file) into an image."""
     width, height = size
     start = time.perf_counter()
@@ -86,8 +89,7 @@ def render(scene, output, size, samples, eye, target, up, fov, no_shadows, backg
         prog = tree.program()
         camera = None
         if eye is None and target is None and fov is None:  # a built-in model's own view
-            view = scene_camera(scene, tree, width, height)
-            camera = None if view is None else Camera(**view)
+            camera = scene_camera(scene, prog, width, height)
         else:
             if eye is None or target is None or fov is None:
                 framed = default_camera(prog, width, height)
@@ -97,6 +99,7 @@ def render(scene, output, size, samples, eye, target, up, fov, no_shadows, backg
         with cluster(scheduler, dask_workers, quiet) as client, compile_notice(quiet):
             img = render_image(tree, width, height, camera=camera,
                                samples=samples, shadows=not no_shadows, background=background,
+                               look=look,
                                tile=tile, progress=not quiet, scheduler=client,
                                checkpoint=checkpoint, resume=resume)
         save_image(img, output)

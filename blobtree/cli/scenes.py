@@ -10,6 +10,7 @@ import click
 from .. import models
 from ..io import SceneError, load
 from ..nodes import Node
+from ..render.camera import Camera, framed_camera
 
 #: Built-in models by name: each a function of no arguments returning a tree.
 BUILTIN: dict[str, Callable[[], Node]] = {
@@ -23,10 +24,12 @@ BUILTIN: dict[str, Callable[[], Node]] = {
 VIEWS = {"murex": models.FIGURES["14"], **{f"figure{k}": f for k, f in models.FIGURES.items()}}
 
 
-def scene_camera(name: str, tree: Node, width: int, height: int) -> dict | None:
-    """The camera (eye, target, up, fov) a built-in model is best seen from, or None."""
-    view = VIEWS.get(name)
-    return None if view is None else view.camera(tree, aspect=width / height)
+def scene_camera(name: str, prog, width: int, height: int) -> Camera | None:
+    """The camera a built-in model is best seen from (its figure's view, framed), or None."""
+    fig = VIEWS.get(name)
+    if fig is None:
+        return None
+    return framed_camera(prog, width, height, view=fig.view, up=fig.up, fov=fig.fov)
 
 
 def resolve_scene(name: str) -> Node:

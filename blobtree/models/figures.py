@@ -194,38 +194,17 @@ class Figure:
     up: tuple[float, float, float] = SHELL_UP
     fov: float = 30.0
 
-    def frame(self, tree: Node) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, float]:
-        """(target, right, up, half width, half height) of the tree seen along ``view``."""
+    def aspect(self, tree: Node | None = None) -> float:
+        """Width / height that fits the tree's box seen along ``view`` (between 1 and 3)."""
+        tree = self.build() if tree is None else tree
         lo, hi = tree.bounds()
-        target = 0.5 * (lo + hi)
         d = np.asarray(self.view, float) / np.linalg.norm(self.view)
         u = np.asarray(self.up, float) - d * (d @ self.up)
         u /= np.linalg.norm(u)
-        r = np.cross(d, u)
         corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
-                            for z in (lo[2], hi[2])]) - target
-        return target, r, u, float(np.abs(corners @ r).max()), float(np.abs(corners @ u).max())
-
-    def aspect(self, tree: Node | None = None) -> float:
-        """Width / height that fits the tree seen along ``view`` (between 1 and 3)."""
-        _, _, _, half_w, half_h = self.frame(self.build() if tree is None else tree)
+                            for z in (lo[2], hi[2])]) - 0.5 * (lo + hi)
+        half_w, half_h = np.abs(corners @ np.cross(d, u)).max(), np.abs(corners @ u).max()
         return float(np.clip(half_w / half_h, 1.0, 3.0))
-
-    def camera(self, tree: Node | None = None, aspect: float = 1.0
-               ) -> dict[str, tuple[float, ...] | float]:
-        """Suggested camera (eye, target, up, fov in degrees) framing the tree along ``view``
-        in an image of the given width / height."""
-        tree = self.build() if tree is None else tree
-        target, r, u, half_w, half_h = self.frame(tree)
-        lo, hi = tree.bounds()
-        d = np.cross(u, r)
-        depth = float(np.abs((np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
-                                         for z in (lo[2], hi[2])]) - target) @ d).max())
-        half = max(half_h, half_w / aspect)
-        distance = 1.08 * half / math.tan(math.radians(self.fov) / 2.0) + depth
-        eye = target - d * distance
-        return {"eye": tuple(map(float, eye)), "target": tuple(map(float, target)),
-                "up": tuple(map(float, u)), "fov": self.fov}
 
 
 @dataclass(frozen=True)

@@ -17,16 +17,17 @@ import numba
 import numpy as np
 from tqdm import tqdm
 
+from ..checks import Choice
 from ..engine.program import program_of
 from ..parallel import parallel_for
 from .camera import Camera, default_camera
 from .checkpoint import Checkpoint, job_key
 from .image import save_image
 from .shade import Light, default_lights, pack_lights
-from .tiles import RenderSettings, render_tile, trace_rect
+from .tiles import LOOKS, RenderSettings, render_tile, trace_rect
 from .trace import intersect_rays
 
-__all__ = ["Camera", "Light", "RenderSettings", "intersect", "render", "render_tile",
+__all__ = ["LOOKS", "Camera", "Light", "RenderSettings", "intersect", "render", "render_tile",
            "save_image", "tiles"]
 
 Rect = tuple[int, int, int, int]
@@ -49,17 +50,21 @@ def tiles(width: int, height: int, size: int = TILE) -> Iterator[tuple[int, int,
 
 def render(tree, width: int, height: int, camera: Camera | None = None,
            lights: Sequence[Light] | None = None, samples: int = 1, shadows: bool = True,
-           background: tuple[float, float, float] = (1.0, 1.0, 1.0), *,
+           background: tuple[float, float, float] | None = None, *, look: str = "studio",
            progress: bool = False, tile: int = TILE, threads: int | None = None,
            source: TileSource | None = None, checkpoint: str | os.PathLike | None = None,
            resume: bool = False, **shading) -> np.ndarray:
     """Ray-trace ``tree`` into an (height, width, 3) uint8 sRGB image.
 
     ``camera`` defaults to a three-quarter view framing the whole surface; ``lights`` to one key
-    light; ``samples`` rays per pixel (jittered strata, reproducible); ``background`` is an RGB
-    triple in [0, 1]; ``progress`` shows a bar over tiles; ``threads`` (default: numba's thread
-    count) render tiles side by side; ``shading`` may set ``ambient``, ``specular``,
-    ``shininess`` and the jitter ``seed`` (see :class:`RenderSettings`).
+    light; ``samples`` rays per pixel (jittered strata, reproducible); ``look`` one of
+    :data:`LOOKS` (``"studio"``: soft backdrop, soft shadows, ambient occlusion; ``"glossy"``:
+    the same, polished; ``"paper"``: the plain style of the paper's figures); ``background``, an
+    RGB triple in [0, 1], replaces the look's backdrop by that plain colour; ``progress`` shows a
+    bar over tiles; ``threads`` (default: numba's thread count) render tiles side by side;
+    ``shading`` overrides any field of :class:`RenderSettings` the look sets (``ambient``,
+    ``specular``, ``shininess``, ``occlusion``, ``softness``, ``sky``...) and the jitter
+    ``seed``.
 
     ``source(prog, camera, lights, settings, rects)``, if given, renders the rectangles elsewhere
     and yields (rect, pixels) as they finish (``blobtree.distributed`` plugs in a Dask cluster
@@ -67,8 +72,12 @@ def render(tree, width: int, height: int, camera: Camera | None = None,
     ``resume=True`` reuses the tiles a previous, interrupted run of the same job left there (see
     :class:`blobtree.render.checkpoint.Checkpoint`).
     """
+    values = dict(LOOKS[Choice(tuple(LOOKS)).check("look", look)])
+    if background is not None:
+        values.update(background=background, background_bottom=None)
+    values.update(shading)
     settings = RenderSettings(width=width, height=height, samples=samples, shadows=bool(shadows),
-                              background=background, **shading)
+                              **values)
     if threads is None:
         threads = numba.get_num_threads()
     if not (isinstance(threads, int) and threads >= 1):

@@ -72,30 +72,68 @@ class Camera:
 
 #: Direction from the target to the eye of the default view: 35 deg around y, 25 deg up.
 _AZIMUTH, _ELEVATION, _DEFAULT_FOV = 35.0, 25.0, 35.0
+#: Share of the image's width or height the framed model spans.
+FILL = 0.85
 
 
-def surface_sphere(prog, n: int = 40) -> tuple[np.ndarray, float]:
-    """A sphere (centre, radius) around the visible surface (f >= 0.5), found on an n^3 grid over
-    ``prog.bounds`` (the support boxes are up to twice the surface); the bounds' own sphere if the
-    grid finds no inside point."""
+def surface_points(prog, n: int = 48) -> np.ndarray:
+    """Points inside the surface (f >= 0.5) on an n^3 grid over ``prog.bounds``, with the
+    corners of their grid cells, so that they cover the solid; the bounds' corners if the grid
+    finds none."""
     lo, hi = (np.asarray(b, dtype=np.float64) for b in prog.bounds)
     axes = [np.linspace(lo[k], hi[k], n) for k in range(3)]
     grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
     inside = grid[prog.field(grid) >= 0.5]
+    corners = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], float)
     if len(inside) == 0:
-        return (lo + hi) / 2.0, float(np.linalg.norm(hi - lo)) / 2.0
-    cell = float(np.linalg.norm((hi - lo) / (n - 1)))
-    a, b = inside.min(axis=0), inside.max(axis=0)
-    centre = (a + b) / 2.0
-    return centre, float(np.sqrt(((inside - centre) ** 2).sum(axis=1).max())) + cell
+        return lo + corners * (hi - lo)
+    half = 0.5 * (hi - lo) / (n - 1)
+    return (inside[:, None, :] + (2.0 * corners - 1.0) * half).reshape(-1, 3)
 
 
-def default_camera(prog, width: int, height: int) -> Camera:
-    """A three-quarter view from above that fits the whole surface into the image."""
-    centre, radius = surface_sphere(prog)
+def framed_camera(prog, width: int, height: int, view: tuple[float, float, float],
+                  up: tuple[float, float, float] = (0.0, 1.0, 0.0), fov: float = _DEFAULT_FOV,
+                  fill: float = FILL) -> Camera:
+    """A camera looking along ``view`` whose image the solid spans to ``fill`` of its width or
+    height (whichever binds), centred: measured on the solid's projection in perspective, not
+    on its bounding box (whose corners leave a spiky shell small in a wide frame)."""
+    pts = surface_points(prog)
+    fwd = as_vec3("view", view)
+    fwd = fwd / np.linalg.norm(fwd)
+    right = np.cross(fwd, as_vec3("up", up))
+    if not np.linalg.norm(right) > 1e-9:
+        raise ValueError(f"up must not be parallel to view, got up={up!r}, view={view!r}")
+    right /= np.linalg.norm(right)
+    upv = np.cross(right, fwd)
+    tan_h = math.tan(math.radians(fov) / 2.0)
+    tan_w = tan_h * width / height
+    target = 0.5 * (pts.min(axis=0) + pts.max(axis=0))
+    extent = max(np.abs((pts - target) @ right).max() / tan_w,
+                 np.abs((pts - target) @ upv).max() / tan_h)
+    depth = np.abs((pts - target) @ fwd).max()
+    distance = extent / fill + depth
+    for _ in range(8):  # perspective: re-centre and re-scale on the projected extent
+        rel = pts - (target - distance * fwd)
+        z = rel @ fwd
+        sx, sy = (rel @ right) / (z * tan_w), (rel @ upv) / (z * tan_h)
+        cx, cy = 0.5 * (sx.min() + sx.max()), 0.5 * (sy.min() + sy.max())
+        span = max(sx.max() - sx.min(), sy.max() - sy.min()) / 2.0
+        target = target + distance * (cx * tan_w * right + cy * tan_h * upv)
+        distance = max(distance * span / fill, depth * 1.05 + 1e-12)
+    return Camera(eye=tuple(target - distance * fwd), target=tuple(target), up=tuple(upv),
+                  fov=fov)
+
+
+def default_camera(prog, width: int, height: int, up: tuple[float, float, float] = (0, 1, 0)
+                   ) -> Camera:
+    """A three-quarter view from above (``up`` is up in the image) framing the solid to
+    :data:`FILL` of the image."""
+    up = as_vec3("up", up) / np.linalg.norm(as_vec3("up", up))
     az, el = math.radians(_AZIMUTH), math.radians(_ELEVATION)
-    view = np.array([math.sin(az) * math.cos(el), math.sin(el), math.cos(az) * math.cos(el)])
-    half_v = math.radians(_DEFAULT_FOV) / 2.0
-    half = min(half_v, math.atan(math.tan(half_v) * width / height))
-    distance = 1.05 * max(radius, 1e-12) / math.sin(half)
-    return Camera(eye=tuple(centre + distance * view), target=tuple(centre), fov=_DEFAULT_FOV)
+    # azimuth around ``up`` from a side direction, elevation toward ``up``
+    side = np.cross([1.0, 0.0, 0.0] if abs(up[0]) < 0.9 else [0.0, 1.0, 0.0], up)
+    side /= np.linalg.norm(side)
+    other = np.cross(up, side)
+    toward_eye = (math.cos(el) * (math.cos(az) * side + math.sin(az) * other)
+                  + math.sin(el) * up)
+    return framed_camera(prog, width, height, view=tuple(-toward_eye), up=tuple(up))

@@ -1,4 +1,5 @@
-"""Lights and shading: Blinn-Phong with hard shadows, in linear RGB, encoded to sRGB at the end."""
+"""Lights and shading: Blinn-Phong with shadows (hard, or soft from the field), ambient occlusion
+from the field, in linear RGB, encoded to sRGB at the end."""
 
 from __future__ import annotations
 
@@ -89,13 +90,59 @@ def linear_to_srgb_byte(c):
     return np.uint8(int(s * 255.0 + 0.5))
 
 
+#: Layout of the packed look (``RenderSettings.packed_look``): ambient, specular, shininess,
+#: occlusion strength, occlusion radius (scene units), shadow softness (field units), sky.
+AMBIENT, SPECULAR, SHININESS, OCCLUSION, OCCLUSION_RADIUS, SOFTNESS, SKY = range(7)
+#: Field samples along the normal for ambient occlusion.
+OCCLUSION_SAMPLES = 4
+
+
+@kernel
+def _field_at(code, params, boxes, local, llo, lhi, x, y, z, vstack, pstack):
+    """The field at (x, y, z): on the local program inside its box, on the full one outside."""
+    if llo[0] <= x <= lhi[0] and llo[1] <= y <= lhi[1] and llo[2] <= z <= lhi[2]:
+        return interp.eval_point(local[0], params, local[1], x, y, z, 0, vstack, pstack)
+    return interp.eval_point(code, params, boxes, x, y, z, 0, vstack, pstack)
+
+
+@kernel
+def occlusion(code, params, boxes, local, llo, lhi, px, py, pz, nx, ny, nz, slope, radius,
+              vstack, pstack):
+    """Ambient occlusion in [0, 1] at surface point p with outward normal n, from the field
+    alone: a lone surface falls off along its normal as 0.5 - slope * d (slope = |grad f| at p),
+    so whatever the samples at d = radius * k / OCCLUSION_SAMPLES exceed that by is other
+    surface nearby (a crease, the inside of the aperture); nearer samples weigh more."""
+    occ = 0.0
+    total = 0.0
+    for k in range(1, OCCLUSION_SAMPLES + 1):
+        d = radius * k / OCCLUSION_SAMPLES
+        f = _field_at(code, params, boxes, local, llo, lhi, px + d * nx, py + d * ny,
+                      pz + d * nz, vstack, pstack)
+        weight = 1.0 / k
+        occ += weight * min(max(f - max(0.5 - slope * d, 0.0), 0.0) / 0.5, 1.0)
+        total += weight
+    return occ / total
+
+
+@kernel
+def _smoothstep(x):
+    """0 below 0, 1 above 1, the cubic 3x^2 - 2x^3 between."""
+    x = min(max(x, 0.0), 1.0)
+    return x * x * (3.0 - 2.0 * x)
+
+
 @kernel
 def shade(code, params, boxes, lips, local, llo, lhi, px, py, pz, vx, vy, vz, lights, lo, hi,
-          shadows, ambient, specular, shininess, shadow_eps, out, vstack, pstack):
+          shadows, look, shadow_eps, out, vstack, pstack):
     """Linear RGB at surface point p seen along view direction v (unit, toward the surface),
     written into out[0:3].  ``local = (code, boxes, lips)`` is the program specialised to the box
     [llo, lhi] around p (or the full program and its bounds): it gives the normal and albedo,
-    and carries each shadow ray while it stays in that box; the full program takes it on."""
+    and carries each shadow ray while it stays in that box; the full program takes it on.
+
+    ``look`` (see :data:`AMBIENT` ...): the ambient light, brighter from above by ``SKY`` and
+    darkened by the field's :func:`occlusion`; Blinn-Phong lights whose shadow rays, when they
+    miss, still darken by how close they passed to a surface (the field's rise along them,
+    over ``SOFTNESS``): the penumbra of an area light, from one ray."""
     interp.eval_point(local[0], params, local[1], px, py, pz, 2, vstack, pstack)
     # The field decreases outward, so the outward normal is -grad f.
     nx, ny, nz = -vstack[0, 1], -vstack[0, 2], -vstack[0, 3]
@@ -107,6 +154,12 @@ def shade(code, params, boxes, lips, local, llo, lhi, px, py, pz, vx, vy, vz, li
     ar = srgb_to_linear(min(max(vstack[0, 4], 0.0), 1.0))
     ag = srgb_to_linear(min(max(vstack[0, 5], 0.0), 1.0))
     ab = srgb_to_linear(min(max(vstack[0, 6], 0.0), 1.0))
+    ambient = look[AMBIENT] * (1.0 - look[SKY] * 0.5 * (1.0 - ny))
+    if look[OCCLUSION] > 0.0:
+        ambient *= 1.0 - look[OCCLUSION] * occlusion(
+            code, params, boxes, local, llo, lhi, px, py, pz, nx, ny, nz, nn,
+            look[OCCLUSION_RADIUS], vstack, pstack)
+    specular, shininess, softness = look[SPECULAR], look[SHININESS], look[SOFTNESS]
     r = ambient * ar
     g = ambient * ag
     b = ambient * ab
@@ -123,6 +176,7 @@ def shade(code, params, boxes, lips, local, llo, lhi, px, py, pz, vx, vy, vz, li
         ndl = nx * lx + ny * ly + nz * lz
         if ndl <= 0.0:
             continue
+        lit = 1.0
         if shadows:
             # Start the shadow ray off the surface along the normal, so it cannot re-hit it.
             sx = px + shadow_eps * nx
@@ -132,11 +186,14 @@ def shade(code, params, boxes, lips, local, llo, lhi, px, py, pz, vx, vy, vz, li
             if t0 <= t1:
                 ta, tb = clip_box(sx, sy, sz, lx, ly, lz, llo, lhi, t0, t1)
                 t_split = tb if ta == t0 and ta <= tb else -np.inf  # starts in the local box?
-                if trace_from_local(code, params, boxes, lips, local, sx, sy, sz, lx, ly, lz,
-                                    t0, t_split, t1, 0.5 * shadow_eps, 0.0,
-                                    0.05 * (tb - t0) + shadow_eps, 0.05, shadow_eps, vstack,
-                                    pstack)[0] >= 0.0:
+                t, _, rise = trace_from_local(code, params, boxes, lips, local, sx, sy, sz, lx,
+                                              ly, lz, t0, t_split, t1, 0.5 * shadow_eps, 0.0,
+                                              0.05 * (tb - t0) + shadow_eps, 0.05, shadow_eps,
+                                              vstack, pstack)
+                if t >= 0.0:
                     continue
+                if softness > 0.0:
+                    lit = _smoothstep((0.5 - rise) / softness)
         hx, hy, hz = lx - vx, ly - vy, lz - vz
         hn = np.sqrt(hx * hx + hy * hy + hz * hz)
         spec = 0.0
@@ -144,9 +201,9 @@ def shade(code, params, boxes, lips, local, llo, lhi, px, py, pz, vx, vy, vz, li
             ndh = (nx * hx + ny * hy + nz * hz) / hn
             if ndh > 0.0:
                 spec = specular * ndh ** shininess
-        r += lights[k, 4] * (ar * ndl + spec)
-        g += lights[k, 5] * (ag * ndl + spec)
-        b += lights[k, 6] * (ab * ndl + spec)
+        r += lit * lights[k, 4] * (ar * ndl + spec)
+        g += lit * lights[k, 5] * (ag * ndl + spec)
+        b += lit * lights[k, 6] * (ab * ndl + spec)
     out[0] = r
     out[1] = g
     out[2] = b

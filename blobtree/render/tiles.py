@@ -16,7 +16,20 @@ from ..checks import Integer, Number
 from ..engine.specialize import specialize
 from ..jit import kernel
 from .camera import Camera, as_color
-from .shade import Light, linear_to_srgb_byte, pack_lights, shade, srgb_to_linear_array
+from .shade import (
+    AMBIENT,
+    OCCLUSION,
+    OCCLUSION_RADIUS,
+    SHININESS,
+    SKY,
+    SOFTNESS,
+    SPECULAR,
+    Light,
+    linear_to_srgb_byte,
+    pack_lights,
+    shade,
+    srgb_to_linear_array,
+)
 from .trace import clip_box, march_cone, trace_from_local
 
 #: Largest image side accepted (a 16384^2 image is 805 MB of RGB).
@@ -39,7 +52,14 @@ PIXEL_SPAN = 4.0
 
 @dataclass(frozen=True)
 class RenderSettings:
-    """Everything besides the scene, camera and lights that decides the pixels."""
+    """Everything besides the scene, camera and lights that decides the pixels.
+
+    The defaults are the plain look of the paper's figures (``LOOKS["paper"]``).  ``background``
+    is the backdrop's colour at the top of the image; ``background_bottom``, if given, the colour
+    it fades to at the bottom (a studio backdrop).  ``occlusion`` (0-1) darkens the ambient light
+    in creases, from field samples up to ``occlusion_radius`` (a fraction of the scene's
+    diagonal) along the normal; ``softness`` (field units, 0 = hard) widens shadow edges into a
+    penumbra; ``sky`` (0-1) dims the ambient light on surfaces facing down (-y)."""
 
     width: int
     height: int
@@ -50,17 +70,57 @@ class RenderSettings:
     specular: float = 0.25
     shininess: float = 40.0
     seed: int = 0
+    background_bottom: tuple[float, float, float] | None = None
+    occlusion: float = 0.0
+    occlusion_radius: float = 0.03
+    softness: float = 0.0
+    sky: float = 0.0
 
     def __post_init__(self) -> None:
         for name, kind in (("width", Integer(1, MAX_SIDE)), ("height", Integer(1, MAX_SIDE)),
                            ("samples", Integer(1, MAX_SAMPLES)), ("seed", Integer(0, 2**32 - 1))):
             object.__setattr__(self, name, kind.check(name, getattr(self, name)))
-        object.__setattr__(self, "background", tuple(float(c) for c in as_color(
-            "background", self.background)))
+        for name in ("background", "background_bottom"):
+            value = getattr(self, name)
+            if value is not None or name == "background":
+                object.__setattr__(self, name, tuple(float(c) for c in as_color(name, value)))
         for name in ("ambient", "specular", "shininess"):
             object.__setattr__(self, name, Number(lo=0.0, hi=1e6).check(name, getattr(self, name)))
+        for name, kind in (("occlusion", Number(lo=0.0, hi=1.0)),
+                           ("occlusion_radius", Number(lo=0.0, hi=1.0, lo_open=True)),
+                           ("softness", Number(lo=0.0, hi=0.5)), ("sky", Number(lo=0.0, hi=1.0))):
+            object.__setattr__(self, name, kind.check(name, getattr(self, name)))
         if not isinstance(self.shadows, bool | np.bool_):
             raise ValueError(f"shadows must be True or False, got {str(self.shadows)[:60]}")
+
+    def packed_look(self, diagonal: float) -> np.ndarray:
+        """The shading values for the kernels (layout: ``shade.AMBIENT`` ...)."""
+        look = np.zeros(7)
+        look[AMBIENT], look[SPECULAR], look[SHININESS] = self.ambient, self.specular, \
+            self.shininess
+        look[OCCLUSION], look[OCCLUSION_RADIUS] = self.occlusion, self.occlusion_radius * diagonal
+        look[SOFTNESS], look[SKY] = self.softness, self.sky
+        return look
+
+    def backdrop(self) -> tuple[np.ndarray, np.ndarray]:
+        """Each image row's backdrop: (height, 3) linear RGB and (height, 3) sRGB bytes."""
+        top = np.array(self.background)
+        bottom = top if self.background_bottom is None else np.array(self.background_bottom)
+        s = ((np.arange(self.height) + 0.5) / self.height)[:, None]
+        rows = top + (bottom - top) * s * s  # light above, darkening toward the floor
+        return srgb_to_linear_array(rows), (rows * 255.0 + 0.5).astype(np.int64).astype(np.uint8)
+
+
+#: Named looks: keyword values for :class:`RenderSettings`.  ``paper``: the plain style of the
+#: paper's figures (white, one light, hard shadows); ``studio``: a soft backdrop, soft shadows,
+#: ambient occlusion and a sky-lit ambient; ``glossy``: studio with a polished shell.
+LOOKS: dict[str, dict] = {
+    "paper": {},
+    "studio": dict(background=(0.99, 0.99, 0.99), background_bottom=(0.55, 0.57, 0.62),
+                   ambient=0.3, sky=0.7, occlusion=1.0, occlusion_radius=0.08,
+                   softness=0.2, specular=0.15, shininess=30.0),
+}
+LOOKS["glossy"] = dict(LOOKS["studio"], specular=0.7, shininess=120.0)
 
 
 def check_rect(settings: RenderSettings, x0: int, y0: int, x1: int, y1: int) -> None:
@@ -90,9 +150,7 @@ def trace_rect(prog, cam: np.ndarray, lights: np.ndarray, settings: RenderSettin
     diag = float(np.linalg.norm(hi - lo))
     s = settings
     out = np.empty((y1 - y0, x1 - x0, 3), dtype=np.uint8)
-    background = np.array(s.background, dtype=np.float64)
-    bg = srgb_to_linear_array(background)
-    bg_bytes = (background * 255.0 + 0.5).astype(np.int64).astype(np.uint8)
+    bg, bg_bytes = s.backdrop()
     # Camera rays may skip features thinner than half a pixel's footprint (along the ray).
     eps_rel = float(np.linalg.norm(cam[9:12])) / s.height
     # No ray meets the surface before reaching the bounds box, nor after its farthest corner.
@@ -108,7 +166,7 @@ def trace_rect(prog, cam: np.ndarray, lights: np.ndarray, settings: RenderSettin
     local = (np.empty((n, 4), dtype=np.int64), np.empty((n, 6)), np.empty(n))
     block = (np.empty((n, 4), dtype=np.int64), np.empty((n, 6)), np.empty(n))
     _render_blocks(code, params, boxes, lips, cam, lights, lo, hi, s.width, s.height, s.samples,
-                   s.shadows, bg, bg_bytes, s.ambient, s.specular, s.shininess,
+                   s.shadows, bg, bg_bytes, s.packed_look(diag),
                    EPS_SCENE * diag, eps_rel, SHADOW_OFFSET * diag, s.seed, x0, y0, x1, y1, gx0,
                    gy0, nbx, nby, t_near, t_far, out, np.empty(3), *scratch, *local, *block,
                    np.empty(3), np.empty(3), np.empty((7, n + 1), dtype=np.int64))
@@ -168,11 +226,12 @@ def _block_start(code, params, boxes, lips, cam, width, height, bx0, by0, bx1, b
 
 @kernel
 def _pixel(code, params, boxes, lips, local, llo, lhi, cam, lights, lo, hi, width, height,
-           samples, shadows, bg, bg_bytes, ambient, specular, shininess, eps_abs, eps_rel,
-           shadow_eps, seed, px, py, t_start, t_local, seg0, out, iy, ix, rgb, vstack, pstack):
+           samples, shadows, bg, bg_bytes, look, eps_abs, eps_rel, shadow_eps, seed, px, py,
+           t_start, t_local, seg0, out, iy, ix, rgb, vstack, pstack):
     """Trace and shade pixel (px, py) with every ray starting at depth t_start (finite); write
-    its sRGB bytes into out[iy, ix].  Up to depth t_local the rays stay in the box [llo, lhi] the
-    program ``local = (code, boxes, lips)`` is specialised to; beyond it they use the full one.
+    its sRGB bytes into out[iy, ix] (``bg``, ``bg_bytes``: each row's backdrop).  Up to depth
+    t_local the rays stay in the box [llo, lhi] the program ``local = (code, boxes, lips)`` is
+    specialised to; beyond it they use the full one.
     ``seg0`` caps a ray's first candidate segment."""
     m = int(np.ceil(np.sqrt(samples)))
     rows = (samples + m - 1) // m
@@ -187,14 +246,14 @@ def _pixel(code, params, boxes, lips, local, llo, lhi, cam, lights, lo, hi, widt
             v = (s // m + _uniform(seed, px, py, s, 1)) / rows
         dx, dy, dz = _ray(cam, width, height, px + u, py + v)
         t0, t1 = clip_box(cam[0], cam[1], cam[2], dx, dy, dz, lo, hi, t_start, np.inf)
-        t, inside = trace_from_local(code, params, boxes, lips, local, cam[0], cam[1], cam[2],
+        t, inside, _ = trace_from_local(code, params, boxes, lips, local, cam[0], cam[1], cam[2],
                                      dx, dy, dz, t0, t_local, t1, eps_abs, eps_rel,
                                      min(DELTA0 * (t1 - t0), seg0) + eps_abs, DELTA0, eps_abs,
                                      vstack, pstack)
         if t < 0.0:
-            acc_r += bg[0]
-            acc_g += bg[1]
-            acc_b += bg[2]
+            acc_r += bg[py, 0]
+            acc_g += bg[py, 1]
+            acc_b += bg[py, 2]
             continue
         hits += 1
         # the program and box around the hit: the local ones, or the full program and bounds
@@ -202,14 +261,14 @@ def _pixel(code, params, boxes, lips, local, llo, lhi, cam, lights, lo, hi, widt
         if not inside:
             near, nlo, nhi = (code, boxes, lips), lo, hi
         shade(code, params, boxes, lips, near, nlo, nhi, cam[0] + t * dx, cam[1] + t * dy,
-              cam[2] + t * dz, dx, dy, dz, lights, lo, hi, shadows, ambient, specular, shininess,
+              cam[2] + t * dz, dx, dy, dz, lights, lo, hi, shadows, look,
               max(shadow_eps, eps_rel * t), rgb, vstack, pstack)
         acc_r += rgb[0]
         acc_g += rgb[1]
         acc_b += rgb[2]
     if hits == 0:
         for c in range(3):
-            out[iy, ix, c] = bg_bytes[c]
+            out[iy, ix, c] = bg_bytes[py, c]
     else:
         out[iy, ix, 0] = linear_to_srgb_byte(acc_r / samples)
         out[iy, ix, 1] = linear_to_srgb_byte(acc_g / samples)
@@ -232,9 +291,9 @@ def _localize(code, boxes, lips, cam, ax, ay, az, tan_a, t_a, t_b, oc, ob, ol, l
 
 @kernel(nogil=True)
 def _render_blocks(code, params, boxes, lips, cam, lights, lo, hi, width, height, samples,
-                   shadows, bg, bg_bytes, ambient, specular, shininess, eps_abs, eps_rel,
-                   shadow_eps, seed, x0, y0, x1, y1, gx0, gy0, nbx, nby, t_near, t_far, out, rgb,
-                   vstack, pstack, oc, ob, ol, boc, bob, bol, rlo, rhi, work):
+                   shadows, bg, bg_bytes, look, eps_abs, eps_rel, shadow_eps, seed, x0, y0, x1,
+                   y1, gx0, gy0, nbx, nby, t_near, t_far, out, rgb, vstack, pstack, oc, ob, ol,
+                   boc, bob, bol, rlo, rhi, work):
     """Pixels [x0, x1) x [y0, y1), on one core without the GIL, on buffers ``trace_rect``
     allocated: the nbx x nby blocks of BLOCK^2 pixels from block (gx0, gy0), each first marched
     as one cone, then as cones of SUB^2 pixels (on the program specialised to the block cone's
@@ -286,9 +345,9 @@ def _render_blocks(code, params, boxes, lips, cam, lights, lo, hi, width, height
                     for px in range(max(sx0, x0), min(sx1, x1)):
                         if ts == np.inf:  # the cone proved every ray misses
                             for c in range(3):
-                                out[py - y0, px - x0, c] = bg_bytes[c]
+                                out[py - y0, px - x0, c] = bg_bytes[py, c]
                             continue
                         _pixel(code, params, boxes, lips, local, rlo, rhi, cam, lights, lo, hi,
-                               width, height, samples, shadows, bg, bg_bytes, ambient, specular,
-                               shininess, eps_abs, eps_rel, shadow_eps, seed, px, py, ts,
+                               width, height, samples, shadows, bg, bg_bytes, look, eps_abs,
+                               eps_rel, shadow_eps, seed, px, py, ts,
                                t_local, seg0, out, py - y0, px - x0, rgb, vstack, pstack)

@@ -94,18 +94,23 @@ def _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, ta, fa, tb, fb, tol, vs
 @kernel
 def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, eps_rel,
           delta0, vstack, pstack):
-    """First t in [t0, t1] where the field reaches ISO along the unit-direction ray, or -1.
+    """(First t in [t0, t1] where the field reaches ISO along the unit-direction ray, or -1;
+    the largest rise of the field seen along the way).
 
-    A ray that starts inside (f >= ISO at t0) hits at t0.  ``eps_abs + eps_rel * t`` is the
-    smallest step.  One Lipschitz bound serves every step inside its candidate segment, unless
-    the steps it allows are short next to what is left of the segment (the bound is loose
-    there): then a shorter segment takes a new bound.
+    The rise is the most the field climbed above its lowest value before (on the samples the
+    tracer takes): near 0 for a ray leaving a lone surface, close to ISO for one that grazed
+    another (soft shadows use it).  A ray that starts inside (f >= ISO at t0) hits at t0.
+    ``eps_abs + eps_rel * t`` is the smallest step.  One Lipschitz bound serves every step
+    inside its candidate segment, unless the steps it allows are short next to what is left of
+    the segment (the bound is loose there): then a shorter segment takes a new bound.
     """
     t = t0
     f = interp.eval_point(code, params, boxes, ox + t * dx, oy + t * dy, oz + t * dz, 0,
                            vstack, pstack) - ISO
     if f >= 0.0:
-        return t
+        return t, 0.0
+    low = f
+    rise = 0.0
     delta = delta0
     while t < t1:
         ts = t
@@ -122,7 +127,9 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
                                     oz + tn * dz, 0, vstack, pstack) - ISO
             if fn >= 0.0:
                 return _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, t, f, tn, fn,
-                               REFINE_TOL * eps, vstack, pstack)
+                               REFINE_TOL * eps, vstack, pstack), fn - low
+            low = min(low, fn)
+            rise = max(rise, fn - low)
             last = tn - t
             t = tn
             f = fn
@@ -132,7 +139,7 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
             if te - t > REBOUND * last:  # the bound is loose here: take one over a shorter stretch
                 delta = GROWTH * last
                 break
-    return -1.0
+    return -1.0, rise
 
 
 @kernel
@@ -141,18 +148,21 @@ def trace_from_local(code, params, boxes, lips, local, ox, oy, oz, dx, dy, dz, t
     """:func:`trace` over [t0, t1] on ``local = (code, boxes, lips)``, the program specialised
     to where the ray is up to t_split (first candidate segment ``delta_local``), then on the full
     program beyond it (first candidate segment ``frac`` of what is left, plus ``pad``).
-    Returns (t or -1, whether the hit came from the local program)."""
+    Returns (t or -1, whether the hit came from the local program, the field's largest rise
+    as :func:`trace` gives it)."""
     lcode, lboxes, llips = local
+    rise = 0.0
     if t0 <= min(t1, t_split):
-        t = trace(lcode, params, lboxes, llips, ox, oy, oz, dx, dy, dz, t0, min(t1, t_split),
-                  eps_abs, eps_rel, delta_local, vstack, pstack)
+        t, rise = trace(lcode, params, lboxes, llips, ox, oy, oz, dx, dy, dz, t0,
+                        min(t1, t_split), eps_abs, eps_rel, delta_local, vstack, pstack)
         if t >= 0.0:
-            return t, True
+            return t, True, rise
     if t_split < t1:
         t0 = max(t0, t_split)
-        return trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, eps_rel,
-                     frac * (t1 - t0) + pad, vstack, pstack), False
-    return -1.0, False
+        t, more = trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs,
+                        eps_rel, frac * (t1 - t0) + pad, vstack, pstack)
+        return t, False, max(rise, more)
+    return -1.0, False, rise
 
 
 @kernel
@@ -210,6 +220,6 @@ def intersect_rays(start, stop, code, params, boxes, lips, depth, origins, direc
         if t0 > t1:
             continue
         t = trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, 0.0,
-                  0.05 * (t1 - t0) + eps_abs, vstack, pstack)
+                  0.05 * (t1 - t0) + eps_abs, vstack, pstack)[0]
         if t >= 0.0:
             out[i] = t / norm
