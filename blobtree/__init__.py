@@ -7,7 +7,7 @@ tracer (``mesh``, ``render``), then scale-out (``distributed``), this API and th
 """
 
 from . import engine, models
-from .api import polygonize, render
+from .api import polygonize, preview, render
 from .engine import Program, compile_tree
 from .io import load, save
 from .mesh import Mesh
@@ -19,5 +19,6 @@ __version__ = "0.2.0"
 
 __all__ = [
     *_node_names, "Camera", "Light", "Mesh", "Program", "RenderSettings", "compile_tree",
-    "engine", "load", "models", "polygonize", "render", "render_tile", "save", "save_image",
+    "engine", "load", "models", "polygonize", "preview", "render", "render_tile", "save",
+    "save_image",
 ]

@@ -3,14 +3,20 @@ Dask cluster (``scheduler=``)."""
 
 from __future__ import annotations
 
+import html
+import io
 from typing import Any
 
 import numpy as np
+from PIL import Image
 
 from . import distributed
 from .mesh import Mesh
 from .mesh import polygonize as _polygonize
+from .mesh.web import page
+from .nodes import Node
 from .render import render as _render
+from .render.camera import default_camera, framed_camera
 
 
 def render(tree, width: int, height: int, *args: Any, scheduler=None,
@@ -31,3 +37,42 @@ def polygonize(tree, resolution: int | None = None, *, scheduler=None, **options
     if scheduler is None:
         return _polygonize(tree, resolution, **options)
     return distributed.polygonize(scheduler, tree, resolution=resolution, **options)
+
+
+#: Side in pixels of a notebook preview.
+PREVIEW_SIZE = 256
+
+
+def preview(tree: Node, size: int = PREVIEW_SIZE, **options: Any) -> np.ndarray:
+    """A quick picture of ``tree`` (what a notebook shows for a node): ``size`` pixels square,
+    the studio look without shadow rays, framed along the view :meth:`Node.shown` gave the tree
+    (a three-quarter view otherwise); ``options`` go to :func:`render`."""
+    prog = tree.program()
+    up, view = tree.display
+    if "camera" not in options:
+        options["camera"] = (default_camera(prog, size, size, up=up) if view is None
+                             else framed_camera(prog, size, size, view=view, up=up))
+    options.setdefault("shadows", False)
+    return _render(prog, size, size, **options)
+
+
+def _node_png(node: Node) -> bytes:
+    """PNG bytes of :func:`preview` (Jupyter's ``_repr_png_``)."""
+    buffer = io.BytesIO()
+    Image.fromarray(preview(node)).save(buffer, format="PNG")
+    return buffer.getvalue()
+
+
+def _mesh_html(mesh: Mesh) -> str:
+    """The mesh's 3D page in an iframe (Jupyter's ``_repr_html_``)."""
+    if len(mesh.faces) == 0:
+        return "<p>an empty mesh (no triangles)</p>"
+    text = html.escape(page(mesh), quote=True)
+    return (f'<iframe srcdoc="{text}" width="100%" height="480" style="border: none" '
+            f'title="3D view of the mesh"></iframe>')
+
+
+# Notebook display, installed here, where rendering and meshing are available: a node shows a
+# preview picture, a mesh an orbit viewer.
+Node._repr_png_ = _node_png
+Mesh._repr_html_ = _mesh_html

@@ -15,6 +15,7 @@ from .figures_cmd import figures
 from .mesh_cmd import mesh
 from .render_cmd import render
 from .scenes import BUILTIN, resolve_scene
+from .view_cmd import view
 
 #: What a user's mistake raises (bad values, unreadable or unwritable files, scene documents too
 #: deep or too large): reported in one line, never as a traceback.
@@ -75,6 +76,7 @@ def list_models() -> None:
 main.add_command(figures)
 main.add_command(mesh)
 main.add_command(render)
+main.add_command(view)
 
 
 def run() -> None:

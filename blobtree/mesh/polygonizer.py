@@ -81,7 +81,7 @@ def polygonize(
     ``lipschitz`` as ``Program`` has them (``blobtree.distributed`` passes one whose batches run on
     a Dask cluster; the mesh is the same).
     """
-    from tqdm import tqdm
+    from tqdm.auto import tqdm
 
     prog = program_of(tree)
     if bounds is None and not np.all(np.asarray(prog.bounds[1]) > np.asarray(prog.bounds[0])):

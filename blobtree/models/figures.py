@@ -13,9 +13,11 @@ import numpy as np
 
 from ..nodes import Node, Point, blend, controlled_blend, super_blend, union
 from .murex import (
+    APERTURE_VIEW,
     BUMP_BLEND_N,
     CANAL_SECTIONS,
     DEFAULT,
+    SHELL_UP,
     body_whorl,
     bumps,
     canal_spines,
@@ -31,10 +33,6 @@ from .murex import (
 )
 from .shell_textures import SHELL_TEXTURES
 
-#: Shell figures are seen with the apex up (the shell grows toward +y, see murex.py) ...
-SHELL_UP = (0.0, -1.0, 0.0)
-#: ... from the side of the aperture (aperture on the right, as in Figure 14).
-APERTURE_VIEW = (-0.86, 0.0, -0.72)
 #: Local parts (generating surfaces, varices) are seen face on, the apex side up.
 LOCAL_VIEW = (0.0, 0.0, -1.0)
 

@@ -102,6 +102,11 @@ COLOURS = {
 BODY_MAPPING = HelicoSurface(spiral=MUREX_SPIRAL, u_period=SECTION_DEG, u_start=-THETA_S / 2,
                              radius_factor=1.25, step=0.1, theta_max=INSTANCES * THETA_S)
 
+#: The shell is seen with the apex up (the shell grows toward +y, so the apex is at -y) ...
+SHELL_UP = (0.0, -1.0, 0.0)
+#: ... from the side of the aperture (aperture on the right, as in Figure 14).
+APERTURE_VIEW = (-0.86, 0.0, -0.72)
+
 #: x of the shell axis in the local frame: -R / D (a constant, since D = 0.341 R by Eq. 7).
 AXIS_X = -MUREX_SPIRAL.radius(0.0) / MUREX_SPIRAL.size(0.0)
 
@@ -594,6 +599,6 @@ def murex(seed: int = 0, inside: bool = True, textured: bool = True,
         raise ValueError(f"unknown choice(s) {unknown}; allowed: {allowed}")
     c = replace(DEFAULT, **choices)
     carved = difference(shell(seed, c, textured), opening(c).color(COLOURS["inside"]))
-    if not inside:
-        return carved
-    return union(carved, inside_wall(c).color(COLOURS["inside"]))
+    if inside:
+        carved = union(carved, inside_wall(c).color(COLOURS["inside"]))
+    return carved.shown(up=SHELL_UP, view=APERTURE_VIEW)

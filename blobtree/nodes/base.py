@@ -35,7 +35,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from .. import geometry as geo
-from ..checks import Choice
+from ..checks import Choice, Vec3
 from ..fields import FALLOFFS, SLOPE, falloff_array
 from .params import REQUIRED, Param
 
@@ -305,6 +305,25 @@ class Node:
             raise TypeError(f"{type(self).__name__} has no parameter(s) {sorted(unknown)}; "
                             f"it has {[p.name for p in self.PARAMS]}")
         return _rebuild(type(self), tuple(children), {**self.values(), **changes})
+
+    def shown(self, up: tuple[float, float, float] = (0.0, 1.0, 0.0),
+              view: tuple[float, float, float] | None = None) -> Node:
+        """The same tree (equal to this one, the same field) carrying how it is best looked at:
+        the direction shown up and the direction looked along (None: a three-quarter view).
+        Notebook previews use it; it is display metadata, not saved in scene files."""
+        up = tuple(float(x) for x in Vec3().check("up", up))
+        if view is not None:
+            view = tuple(float(x) for x in Vec3().check("view", view))
+        if not (any(up) and (view is None or any(view))):
+            raise ValueError(f"up and view must be non-zero vectors, got up={up}, view={view}")
+        node = _rebuild(type(self), self.children, self.values())
+        node.__dict__["display"] = (up, view)
+        return node
+
+    @property
+    def display(self) -> tuple[tuple[float, float, float], tuple[float, float, float] | None]:
+        """(up, view) given by :meth:`shown`; ((0, 1, 0), None) if none was."""
+        return self.__dict__.get("display", ((0.0, 1.0, 0.0), None))
 
     # ----- identity ---------------------------------------------------------------------------
     @cached_property

@@ -15,7 +15,7 @@ from typing import Any
 
 import numba
 import numpy as np
-from tqdm import tqdm
+from tqdm.auto import tqdm
 
 from ..checks import Choice
 from ..engine.program import program_of

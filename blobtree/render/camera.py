@@ -76,7 +76,7 @@ _AZIMUTH, _ELEVATION, _DEFAULT_FOV = 35.0, 25.0, 35.0
 FILL = 0.85
 
 
-def surface_points(prog, n: int = 48) -> np.ndarray:
+def surface_points(prog, n: int = 24) -> np.ndarray:
     """Points inside the surface (f >= 0.5) on an n^3 grid over ``prog.bounds``, with the
     corners of their grid cells, so that they cover the solid; the bounds' corners if the grid
     finds none."""
@@ -97,7 +97,13 @@ def framed_camera(prog, width: int, height: int, view: tuple[float, float, float
     """A camera looking along ``view`` whose image the solid spans to ``fill`` of its width or
     height (whichever binds), centred: measured on the solid's projection in perspective, not
     on its bounding box (whose corners leave a spiky shell small in a wide frame)."""
-    pts = surface_points(prog)
+    return frame_points(surface_points(prog), width / height, view, up, fov, fill)
+
+
+def frame_points(pts: np.ndarray, aspect: float, view: tuple[float, float, float],
+                 up: tuple[float, float, float] = (0.0, 1.0, 0.0), fov: float = _DEFAULT_FOV,
+                 fill: float = FILL) -> Camera:
+    """:func:`framed_camera` for points (N, 3) and an image of width / height ``aspect``."""
     fwd = as_vec3("view", view)
     fwd = fwd / np.linalg.norm(fwd)
     right = np.cross(fwd, as_vec3("up", up))
@@ -106,7 +112,7 @@ def framed_camera(prog, width: int, height: int, view: tuple[float, float, float
     right /= np.linalg.norm(right)
     upv = np.cross(right, fwd)
     tan_h = math.tan(math.radians(fov) / 2.0)
-    tan_w = tan_h * width / height
+    tan_w = tan_h * aspect
     target = 0.5 * (pts.min(axis=0) + pts.max(axis=0))
     extent = max(np.abs((pts - target) @ right).max() / tan_w,
                  np.abs((pts - target) @ upv).max() / tan_h)
