@@ -6,7 +6,7 @@ strings, megabyte strings, wrong shapes, numpy scalars and arrays), and scene do
 scenes with one part replaced, removed or added; truncated text; deep and wide trees).  Each
 example must either succeed (and then give a sound result: finite fields and bounds, an image
 of the asked size, a closed mesh, a scene that saves and loads back equal) or raise ValueError
-(SceneError for scene files) within the deadline.  A TypeError is allowed only for an unknown
+(SceneError for scene files) without hanging (``HANG``).  A TypeError is allowed only for an unknown
 keyword, as Python itself raises it.
 
 The example counts scale with the hypothesis profile (``ci``: about 10,600 in all; see
@@ -37,10 +37,15 @@ FUZZ_EXAMPLES = {"nodes": 4000, "render": 600, "polygonize": 600, "camera": 1500
 _SCALE = settings.default.max_examples / 60
 
 
+#: Per example: catches a hang, far above any example's normal time (under a second), so that a
+#: busy machine does not fail it.
+HANG = timedelta(seconds=60)
+
+
 def fuzz(name: str) -> settings:
-    """Settings for one fuzz test: its share of the examples, a deadline per example."""
+    """Settings for one fuzz test: its share of the examples, a hang deadline per example."""
     return settings(max_examples=max(10, round(FUZZ_EXAMPLES[name] * _SCALE)),
-                    deadline=timedelta(seconds=5),
+                    deadline=HANG,
                     suppress_health_check=list(HealthCheck))
 
 
