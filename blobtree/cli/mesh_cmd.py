@@ -6,13 +6,34 @@ import time
 from pathlib import Path
 
 import click
+import numpy as np
 
 from ..api import polygonize
 from ..files import check_writable
 from ..mesh.export import FORMATS, import_trimesh
 from . import compile_notice
 from .cluster import cluster, cluster_options
-from .scenes import resolve_scene
+from .scenes import VIEWS, resolve_scene
+
+#: Millimetres per unit of length accepted by --height.
+UNITS = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4}
+
+
+def _length(ctx, param, value):
+    """A click callback reading a length such as ``80mm`` or ``3in`` into millimetres."""
+    if value is None:
+        return None
+    text = value.strip().lower()
+    unit = next((u for u in sorted(UNITS, key=len, reverse=True) if text.endswith(u)), "mm")
+    number = text[: len(text) - len(unit)] if text.endswith(unit) else text
+    try:
+        mm = float(number) * UNITS[unit]
+    except ValueError:
+        mm = float("nan")
+    if not 0.01 <= mm <= 1e5:
+        raise click.BadParameter(f"expected a length from 0.01 mm to 100 m such as 80mm, 8cm or "
+                                 f"3in, got {value!r}")
+    return mm
 
 
 @click.command()
@@ -32,9 +53,16 @@ from .scenes import resolve_scene
     show_default=True,
     help="Cells across the longest side of the scene's bounds.",
 )
+@click.option("--height", callback=_length,
+              help="Scale the mesh so the model is this tall (along its up direction: a "
+                   "built-in model's own, else +y), e.g. 80mm, 8cm, 3in; a bare number is mm.  "
+                   "Coordinates are then millimetres (3MF says so in the file).")
+@click.option("--min-piece", type=click.FloatRange(min=0.0, min_open=True),
+              help="Drop separate pieces enclosing less than this volume (in the output's units "
+                   "cubed, mm^3 with --height), and say how many; off by default.")
 @cluster_options
-def mesh(scene: str, output: Path, resolution: int, scheduler: str | None,
-         dask_workers: int | None) -> None:
+def mesh(scene: str, output: Path, resolution: int, height: float | None,
+         min_piece: float | None, scheduler: str | None, dask_workers: int | None) -> None:
     """Polygonize SCENE into a watertight triangle mesh with normals and vertex colours."""
     if output.suffix.lower() not in FORMATS:
         raise click.BadParameter(
@@ -49,9 +77,21 @@ def mesh(scene: str, output: Path, resolution: int, scheduler: str | None,
     start = time.perf_counter()
     with cluster(scheduler, dask_workers) as client, compile_notice():
         result = polygonize(tree, resolution=resolution, progress=True, scheduler=client)
+    notes = []
+    if height is not None and len(result.faces):
+        fig = VIEWS.get(scene)
+        up = np.array((0.0, 1.0, 0.0) if fig is None else fig.up)
+        along = result.vertices @ (up / np.linalg.norm(up))
+        result = result.scaled(height / float(along.max() - along.min()))
+        notes.append(f"{height:g} mm tall")
+    if min_piece is not None:
+        result, dropped = result.without_small_pieces(min_piece)
+        notes.append(f"dropped {dropped} piece{'s' if dropped != 1 else ''} under "
+                     f"{min_piece:g}")
     result.save(output)
     seconds = time.perf_counter() - start
     click.echo(
         f"{output}: {len(result.faces)} triangles, {seconds:.2f} s, "
-        f"watertight: {'yes' if result.is_watertight else 'no'}"
+        f"watertight: {'yes' if result.is_watertight else 'no'}, "
+        f"pieces: {result.component_count()}" + "".join(f", {n}" for n in notes)
     )

@@ -12,10 +12,11 @@ from pathlib import Path
 import numpy as np
 from numba import njit
 
+from ..checks import Number, positive
 from ..files import atomic_path
 
-#: file extension -> trimesh export type
-FORMATS = {".ply": "ply", ".obj": "obj", ".stl": "stl", ".glb": "glb"}
+#: file extension -> trimesh export type (3MF's unit is the millimetre)
+FORMATS = {".ply": "ply", ".obj": "obj", ".stl": "stl", ".glb": "glb", ".3mf": "3mf"}
 
 
 def import_trimesh():
@@ -111,10 +112,41 @@ class Mesh:
 
     def component_count(self) -> int:
         """Number of connected pieces (faces sharing a vertex are connected)."""
-        if len(self.faces) == 0:
-            return 0
+        return len(self.piece_volumes())
+
+    def _pieces(self) -> np.ndarray:
+        """Each face's piece, numbered from 0."""
         roots = _union_faces(np.ascontiguousarray(self.faces, dtype=np.int64), len(self.vertices))
-        return len(np.unique(roots[self.faces[:, 0]]))
+        return np.unique(roots[self.faces[:, 0]], return_inverse=True)[1].reshape(-1)
+
+    def piece_volumes(self) -> np.ndarray:
+        """The signed volume each connected piece encloses (divergence theorem; negative for a
+        closed piece wound inward, such as a bubble inside the solid)."""
+        if len(self.faces) == 0:
+            return np.zeros(0)
+        v = self.vertices[self.faces]
+        tet = np.einsum("ij,ij->i", v[:, 0], np.cross(v[:, 1], v[:, 2])) / 6.0
+        return np.bincount(self._pieces(), weights=tet)
+
+    def without_small_pieces(self, min_volume: float) -> tuple[Mesh, int]:
+        """The mesh without the pieces enclosing less than ``min_volume`` (in absolute value:
+        debris and bubbles alike), and how many were dropped."""
+        min_volume = Number(lo=0.0).check("min_volume", min_volume)
+        if len(self.faces) == 0:
+            return self, 0
+        small = np.abs(self.piece_volumes()) < min_volume
+        keep = ~small[self._pieces()]
+        used = np.unique(self.faces[keep])
+        index = np.full(len(self.vertices), -1, dtype=np.int64)
+        index[used] = np.arange(len(used))
+        faces = index[self.faces[keep]].astype(self.faces.dtype)
+        return (Mesh(self.vertices[used], faces, self.normals[used], self.colors[used]),
+                int(small.sum()))
+
+    def scaled(self, factor: float) -> Mesh:
+        """The mesh scaled by ``factor`` about the origin (normals and colours unchanged)."""
+        factor = positive().check("factor", factor)
+        return Mesh(self.vertices * factor, self.faces, self.normals, self.colors)
 
     def to_trimesh(self):
         """The mesh as a ``trimesh.Trimesh`` (vertices kept as they are, not merged)."""
@@ -132,7 +164,8 @@ class Mesh:
         )
 
     def save(self, path: str | os.PathLike) -> Path:
-        """Write PLY (binary, with colours and normals), OBJ, STL or GLB, chosen by extension.
+        """Write PLY (binary, with colours and normals), OBJ, STL, GLB or 3MF (coordinates in
+        millimetres), chosen by extension.
 
         The file is written whole or not at all: a temporary file beside it is renamed over it.
         """

@@ -1,0 +1,120 @@
+"""Meshes for printing: checked by an independent geometry library (manifold3d), exported at a
+real size (3MF in millimetres, STL), small pieces dropped only when asked."""
+
+import math
+import zipfile
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from hypothesis import given, settings
+
+import blobtree as bt
+from blobtree.cli.main import main
+from tests.trees import trees
+
+m3 = pytest.importorskip("manifold3d", reason="the test extra installs manifold3d")
+
+
+def manifold(mesh: bt.Mesh):
+    """The mesh as a manifold3d solid (manifold3d checks it; it knows nothing of blobtree)."""
+    solid = m3.Manifold(m3.Mesh(vert_properties=np.asarray(mesh.vertices, dtype=np.float32),
+                                tri_verts=np.asarray(mesh.faces, dtype=np.uint32)))
+    return solid
+
+
+def ball(radius: float = 2.0) -> bt.Node:
+    """A point primitive: its surface is the sphere of radius ``radius`` / 2."""
+    return bt.Point(radius=radius)
+
+
+def test_a_ball_is_one_manifold_solid_of_the_sphere_volume():
+    mesh = bt.polygonize(ball(), resolution=64)
+    solid = manifold(mesh)
+    assert solid.status() == m3.Error.NoError
+    assert len(solid.decompose()) == 1
+    assert solid.volume() == pytest.approx(4.0 / 3.0 * math.pi, rel=0.01)  # radius 1
+
+
+def test_whorl126_is_manifold_and_its_volume_matches_the_field():
+    tree = bt.models.whorl126()
+    solid = manifold(bt.polygonize(tree, resolution=128))
+    assert solid.status() == m3.Error.NoError
+    lo, hi = (np.asarray(b) for b in tree.program().bounds)
+    n = 200  # the field's own estimate: the share of a fine grid with f >= 0.5
+    axes = [lo[k] + (np.arange(n) + 0.5) * (hi[k] - lo[k]) / n for k in range(3)]
+    inside = 0
+    for x in axes[0]:  # a slab at a time
+        P = np.stack(np.meshgrid([x], axes[1], axes[2], indexing="ij"), -1).reshape(-1, 3)
+        inside += int((tree.field(P) >= 0.5).sum())
+    estimate = inside * np.prod((hi - lo) / n)
+    assert solid.volume() == pytest.approx(estimate, rel=0.01)
+
+
+@settings(max_examples=12, deadline=None)
+@given(tree=trees(max_leaves=4))
+def test_random_trees_mesh_into_valid_manifolds(tree):
+    mesh = bt.polygonize(tree, resolution=32)
+    if len(mesh.faces) == 0:
+        return
+    solid = manifold(mesh)
+    assert solid.status() == m3.Error.NoError
+    # manifold3d's volume and ours (by pieces, bubbles negative) agree
+    assert solid.volume() == pytest.approx(mesh.piece_volumes().sum(), rel=1e-4, abs=1e-9)
+
+
+def test_small_pieces_are_dropped_only_when_asked_and_counted():
+    tree = bt.union(ball(2.0), ball(0.6).translate(5.0, 0.0, 0.0))
+    mesh = bt.polygonize(tree, resolution=96)
+    volumes = np.sort(np.abs(mesh.piece_volumes()))
+    assert len(volumes) == 2
+    assert volumes[0] == pytest.approx(4 / 3 * math.pi * 0.3**3, rel=0.08)
+    kept, dropped = mesh.without_small_pieces(0.5)
+    assert dropped == 1 and kept.component_count() == 1 and kept.is_watertight
+    assert manifold(kept).volume() == pytest.approx(volumes[1], rel=1e-6)
+    same, none = mesh.without_small_pieces(1e-9)
+    assert none == 0 and len(same.faces) == len(mesh.faces)
+    with pytest.raises(ValueError, match="min_volume"):
+        mesh.without_small_pieces(-1.0)
+
+
+def _scene(tmp_path):
+    tree = bt.union(bt.Cone((0, -1, 0), (0, 2, 0), radius_a=1.0, radius_b=0.6),
+                    ball(0.5).translate(3.0, 0.0, 0.0))
+    path = tmp_path / "s.json"
+    bt.save(tree, path)
+    return path
+
+
+def test_3mf_at_a_real_height_in_millimetres(tmp_path):
+    scene, out = _scene(tmp_path), tmp_path / "shell.3mf"
+    r = CliRunner().invoke(main, ["mesh", str(scene), "-o", str(out), "-r", "64",
+                                  "--height", "8cm", "--min-piece", "2000"])
+    assert r.exit_code == 0, r.output
+    assert "80 mm tall" in r.output and "dropped 1 piece" in r.output and "pieces: 1" in r.output
+    with zipfile.ZipFile(out) as z:
+        model = z.read("3D/3dmodel.model").decode()
+    assert 'unit="millimeter"' in model
+    import trimesh
+
+    loaded = trimesh.load(out, force="mesh")
+    assert loaded.extents[1] == pytest.approx(80.0, abs=1e-3)
+    assert loaded.is_watertight
+
+
+def test_stl_keeps_working_and_height_scales_it(tmp_path):
+    import trimesh
+
+    scene, out = _scene(tmp_path), tmp_path / "shell.stl"
+    r = CliRunner().invoke(main, ["mesh", str(scene), "-o", str(out), "-r", "48",
+                                  "--height", "1.5in"])
+    assert r.exit_code == 0, r.output
+    assert "pieces: 2" in r.output  # nothing dropped unless asked
+    assert trimesh.load(out, force="mesh").extents[1] == pytest.approx(38.1, abs=1e-3)
+
+
+@pytest.mark.parametrize("height", ["tall", "0mm", "-3cm", "5km", "1e9mm"])
+def test_bad_heights_are_refused_by_name(tmp_path, height):
+    r = CliRunner().invoke(main, ["mesh", str(_scene(tmp_path)), "-o",
+                                  str(tmp_path / "x.stl"), "--height", height])
+    assert r.exit_code == 2 and "--height" in r.output and "such as 80mm" in r.output
