@@ -108,11 +108,24 @@ def test_body_whorl_is_21_controlled_sections_of_6_instances():
     body = M.body_whorl()
     assert isinstance(body, bt.ControlledBlend)
     assert len(body.children) == 21
-    assert [tuple(p) for p in body.pairs] == [(j, j + 1) for j in range(20)]
+    # Eq. 10's neighbours, and the canal sections of the last 1 1/3 whorls with each other
+    assert [tuple(p) for p in body.pairs] == ([(j, j + 1) for j in range(20)]
+                                              + [(17, 19), (17, 20), (18, 20)])
+    plain = M.body_whorl(choices=M.Choices(canal_fuse=False))
+    assert [tuple(p) for p in plain.pairs] == [(j, j + 1) for j in range(20)]
     assert count(body, bt.Point) == 126
     # the canal: one bent cone per instance of the last 1 1/3 whorls (4 sections)
     assert count(body, bt.Cone) == 24
     assert [count(s, bt.Cone) for s in body.children] == [0] * 17 + [6] * 4
+
+
+@pytest.mark.slow
+def test_body_whorl_is_one_piece():
+    """The canal sections fused leave no closed tunnel (nor its bubbles); without the fusion
+    there are bubbles (the test of the test)."""
+    assert bt.polygonize(M.body_whorl(), resolution=192).component_count() == 1
+    plain = M.body_whorl(choices=M.Choices(canal_fuse=False))
+    assert bt.polygonize(plain, resolution=192).component_count() > 1
 
 
 def test_whorl_places_instances_by_eq_8():

@@ -171,6 +171,13 @@ class Choices:
     #: The inside wall (Eq. 15): a whorl of points of this fraction of point_radius, minus the
     #: hollow: it makes the opening round where the extension cones cut toward the previous whorl.
     wall_scale: float = 0.95
+    #: Eq. 10 blends each section with its neighbours only; the canal spans 1 1/3 whorls
+    #: (Section 3.1), so the new canal runs over the old one a whorl earlier, and every canal
+    #: section's straight end runs near the axis.  True also blends every two canal sections,
+    #: as a shell's canal is one piece; False keeps the neighbours-only list, where canal
+    #: sheets that only touch leave closed tunnels whose ends break into small bubbles inside
+    #: the solid (11 at 256 cells).
+    canal_fuse: bool = True
     #: Whorl 1's three varices: Table 1 lists no spines for whorl 1 (the apex, where Figure 13
     #: shows low ridges), so they are the two tori of Eq. 12 alone; False leaves them out.
     first_whorl_varices: bool = True
@@ -320,8 +327,18 @@ def body_whorl(canal_sections: int = CANAL_SECTIONS, choices: Choices = DEFAULT,
     if texture is not None:
         wrap = SHELL_TEXTURES["body"].wrap
         secs = [s.texture(texture, mapping=BODY_MAPPING, wrap=wrap) for s in secs]
-    pairs = [(j, j + 1) for j in range(SECTIONS - 1)]
-    return controlled_blend(secs, pairs=pairs)
+    return controlled_blend(secs, pairs=blend_pairs(canal_sections, choices.canal_fuse))
+
+
+def blend_pairs(canal_sections: int = CANAL_SECTIONS, canal_fuse: bool = True
+                ) -> list[tuple[int, int]]:
+    """L_blendpairs of Eq. 10: each section with the next along the spiral; with
+    ``canal_fuse`` (see :class:`Choices`), also every two canal sections."""
+    neighbours = [(j, j + 1) for j in range(SECTIONS - 1)]
+    if not canal_fuse:
+        return neighbours
+    canal = range(SECTIONS - canal_sections, SECTIONS)
+    return neighbours + [(i, j) for i in canal for j in canal if j > i + 1]
 
 
 # ---------------------------------------------------------------------------------------------
