@@ -142,7 +142,10 @@ SMALL_TREE = bt.blend(_point(0.8), _point(0.8, 0.6)).color((0.2, 0.6, 0.9))
 @fuzz("render")
 @given(one_bad(width=st.integers(1, 6), height=st.integers(1, 6), samples=st.integers(1, 2),
                shadows=st.booleans(), background=st.tuples(*[st.floats(0.0, 1.0)] * 3),
-               tile=st.integers(1, 8), threads=st.integers(1, 2), tree=st.just(SMALL_TREE)))
+               tile=st.integers(1, 8), threads=st.integers(1, 2), tree=st.just(SMALL_TREE),
+               look=st.sampled_from(["studio", "glossy", "paper"]),
+               occlusion=st.floats(0.0, 1.0), softness=st.floats(0.0, 0.5),
+               sky=st.floats(0.0, 1.0), occlusion_radius=st.floats(0.001, 1.0)))
 def test_render_works_or_refuses(args):
     try:
         img = bt.render(**args)
@@ -184,7 +187,9 @@ COLOUR = st.tuples(*[st.floats(0.0, 1.0)] * 3)
     st.tuples(st.just(bt.Light), one_bad(position=VEC, intensity=st.floats(0.0, 3.0))),
     st.tuples(st.just(bt.RenderSettings), one_bad(
         width=st.integers(1, 64), height=st.integers(1, 64), samples=st.integers(1, 4),
-        shadows=st.booleans(), background=COLOUR))))
+        shadows=st.booleans(), background=COLOUR,
+        background_bottom=st.one_of(st.none(), COLOUR), occlusion=st.floats(0.0, 1.0),
+        softness=st.floats(0.0, 0.5), sky=st.floats(0.0, 1.0)))))
 def test_cameras_lights_and_settings_work_or_refuse(call):
     make, kwargs = call
     try:
