@@ -34,6 +34,10 @@ import numpy as np
 from .checks import Integer, Number, positive, short_repr
 from .spiral import HelicoSpiral
 
+#: A field gradient shorter than this gives the bounding-surface search no direction: where the
+#: field is flat (inside a cylinder's core, f = 1) rounding leaves gradients of ~1e-16 whose
+#: direction is noise, and the reference and the engine would follow different noise.
+MIN_GRADIENT = 1e-9
 #: Largest theta_max of a bounding surface, in degrees (100 turns: the nearest-whorl search
 #: looks at theta_max / 360 + 2 whorls per step).
 MAX_THETA = 36000.0
@@ -230,7 +234,7 @@ class HelicoSurface:
         """(u, v) for points q with field gradients grad (both in the surface's frame)."""
         q = q.copy()
         gn = np.linalg.norm(grad, axis=1, keepdims=True)
-        out = -grad / np.where(gn > 0.0, gn, 1.0)  # the field falls outward
+        out = np.where(gn > MIN_GRADIENT, -grad / np.where(gn > 0.0, gn, 1.0), 0.0)  # falls out
         for _ in range(self.max_steps):
             theta, dr, dy, radial, d = self.locate(q)
             dist = np.hypot(dr, dy)

@@ -151,3 +151,26 @@ def test_texture_colours_flow_to_mesh_vertices():
     # colours are taken just before the last Newton step moves each vertex a hair
     np.testing.assert_allclose(mesh.colors, tree.albedo(mesh.vertices), atol=0.01)
     assert mesh.colors[:, 0].std() > 0.1  # the ramp shows, not one flat colour
+
+
+def test_bounding_surface_colour_where_the_field_is_flat():
+    """Inside a cylinder's core the field is flat (f = 1) and its gradient rounding noise of
+    either sign: the search takes no direction from it, in the engine as in the reference
+    (a regression: the two followed opposite noise and painted different texels)."""
+    from blobtree.engine import GRID_MIN_POINTS
+    from blobtree.spiral import HelicoSpiral
+    from blobtree.texture import HelicoSurface
+    from tests.trees import sample_points
+
+    img = np.random.default_rng(1).random((16, 16, 3))
+    mapping = HelicoSurface(spiral=HelicoSpiral(beta=22.5, rho=1.3, r0=0.3), u_period=116.0,
+                            theta_max=720.0, step=0.05, max_steps=8)
+    tree = bt.Cylinder(a=(0.0, 0.0, 0.0), b=(0.0, 1.0, 0.5), cylinder_radius=0.5,
+                       radius=0.5).texture(img, mapping=mapping)
+    for seed in (0, 5):  # each had one point on the flat core painted differently
+        P = sample_points(tree, GRID_MIN_POINTS + 5000, seed)
+        _, _, c = tree.program().evaluate(P)
+        fr, _, cr = tree.reference(P)
+        live = fr > 1e-9
+        assert (fr[live] == 1.0).sum() > 100  # the flat core is sampled
+        np.testing.assert_allclose(c[live], cr[live], rtol=1e-9, atol=1e-9)

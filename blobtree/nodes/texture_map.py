@@ -54,8 +54,10 @@ def texture_paint(p, o, px, py, pz, gx, gy, gz):
     ly = p[m + 3] * gx + p[m + 4] * gy + p[m + 5] * gz
     lz = p[m + 6] * gx + p[m + 7] * gy + p[m + 8] * gz
     gn = math.sqrt(lx * lx + ly * ly + lz * lz)
-    if gn > 0.0:
+    if gn > tex.MIN_GRADIENT:
         lx, ly, lz = -lx / gn, -ly / gn, -lz / gn  # the field falls outward
+    else:
+        lx, ly, lz = 0.0, 0.0, 0.0  # flat field: no direction (as the reference)
     factor, wgt, step = p[o + RADIUS_FACTOR], p[o + GRADIENT_WEIGHT], p[o + STEP]
     for _ in range(int(p[o + MAX_STEPS])):
         theta, dr, dy, rx, rz, d = helico_locate(p, o, x, y, z)
