@@ -3,11 +3,14 @@
 A scene file is data: loading builds nodes from the registry of node types and never executes
 code.  Every error names the JSON path of the problem, e.g. ``$.nodes[3].params.radius``.
 
-Version 2 (written) lists each distinct node once, children before parents, and refers to
+Version 3 (written) is version 2 with the controlled blend's ``groups`` and ``n``; a file of an
+earlier version lacks the parameters added since (``Param.since``), which take their defaults.
+
+Version 2 lists each distinct node once, children before parents, and refers to
 children by their index in that list, so a subtree used in several places (the paper's
 P(B, theta) reuses B) is stored once, and no depth of nesting strains the reader::
 
-    {"format": "blobtree-scene", "version": 2, "images": {KEY: BASE64_PNG, ...},
+    {"format": "blobtree-scene", "version": 3, "images": {KEY: BASE64_PNG, ...},
      "nodes": [{"type": "point", "params": {...}}, {"type": "scale", "params": {...},
                 "children": [0]}, ...],
      "root": 1}
@@ -30,7 +33,7 @@ from .nodes.base import arity_words
 from .texture import image_from_text, image_to_text
 
 FORMAT = "blobtree-scene"
-VERSION = 2
+VERSION = 3
 
 
 class SceneError(ValueError):
@@ -43,7 +46,7 @@ def schema() -> dict[str, dict[str, str]]:
 
 
 def to_dict(tree: Node) -> dict[str, Any]:
-    """The scene document of a tree (version 2)."""
+    """The scene document of a tree (the current version)."""
     images: dict[str, np.ndarray] = {}
     entries: list[dict[str, Any]] = []
     index: dict[int, int] = {}
@@ -161,7 +164,7 @@ def from_dict(doc: Any) -> Node:
         except RecursionError:
             raise SceneError("$.root: nested too deeply to read (save it again as version 2)"
                              ) from None
-    return _build_flat(doc, images)
+    return _build_flat(doc, images, version)
 
 
 def _kind(v: Any) -> str:
@@ -169,7 +172,7 @@ def _kind(v: Any) -> str:
             type(None): "null"}.get(type(v), "a number")
 
 
-def _build_flat(doc: dict[str, Any], images: dict[str, Any]) -> Node:
+def _build_flat(doc: dict[str, Any], images: dict[str, Any], version: int) -> Node:
     entries = doc.get("nodes")
     if not isinstance(entries, list) or not entries:
         raise SceneError("$.nodes: expected a non-empty list of nodes")
@@ -186,7 +189,7 @@ def _build_flat(doc: dict[str, Any], images: dict[str, Any]) -> Node:
                 raise SceneError(f"{path}.children[{j}]: expected the index of an earlier "
                                  f"node (0 to {i - 1}), got {json.dumps(r)[:40]}")
             children.append(built[r])
-        built.append(_make(d, path, children, images))
+        built.append(_make(d, path, children, images, version))
     root = doc["root"]
     if not (isinstance(root, int) and not isinstance(root, bool) and 0 <= root < len(built)):
         raise SceneError(f"$.root: expected a node index in [0, {len(built)}), got "
@@ -199,11 +202,13 @@ def _build_nested(d: Any, path: str, images: dict[str, Any]) -> Node:
     if not isinstance(raw, list):
         raise SceneError(f"{path}.children: expected a list, got {_kind(raw)}")
     children = [_build_nested(c, f"{path}.children[{i}]", images) for i, c in enumerate(raw)]
-    return _make(d, path, children, images)
+    return _make(d, path, children, images, 1)
 
 
-def _make(d: Any, path: str, children: list[Node], images: dict[str, Any]) -> Node:
-    """One node from its JSON object and its built children."""
+def _make(d: Any, path: str, children: list[Node], images: dict[str, Any],
+          version: int) -> Node:
+    """One node from its JSON object and its built children (a file of ``version`` may lack
+    the parameters added later, ``Param.since``: they take their defaults)."""
     if not isinstance(d, dict):
         raise SceneError(f"{path}: expected a node object, got {_kind(d)}")
     t = d.get("type")
@@ -225,6 +230,8 @@ def _make(d: Any, path: str, children: list[Node], images: dict[str, Any]) -> No
     values = {}
     for name, p in spec.items():
         if name not in params:
+            if p.since > version:  # a parameter newer than the file: its default
+                continue
             raise SceneError(f"{path}.params.{name}: missing ({p.kind.schema})")
         try:
             values[name] = p.kind.check(name, p.kind.from_json(name, params[name], images))

@@ -69,7 +69,22 @@ def test_version_1_files_still_load(tree):
     if images:
         doc["images"] = {k: image_to_text(v) for k, v in images.items()}
     assert loads(json.dumps(doc)) == tree
-    assert json.loads(dumps(tree))["version"] == 2
+    assert json.loads(dumps(tree))["version"] == 3
+
+
+def test_files_older_than_a_parameter_give_it_its_default():
+    """The controlled blend's groups and n came with version 3: a version-2 file has neither
+    and loads with their defaults; a version-3 file without them is refused by name."""
+    a, b = bt.Point(radius=1.0), bt.Point(radius=1.0, center=(0.8, 0.0, 0.0))
+    tree = bt.controlled_blend([a, b], pairs=[(0, 1)])
+    doc = json.loads(dumps(tree))
+    for node in doc["nodes"]:
+        if node["type"] == "controlled_blend":
+            del node["params"]["groups"], node["params"]["n"]
+    with pytest.raises(SceneError, match=r"params.groups: missing"):
+        loads(json.dumps(doc))
+    doc["version"] = 2
+    assert loads(json.dumps(doc)) == tree
 
 
 def _doc(root):

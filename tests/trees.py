@@ -37,6 +37,12 @@ def value(kind: C.Kind, children: int) -> st.SearchStrategy:
     if isinstance(kind, K.Pairs):
         pair = st.tuples(st.integers(0, children - 1), st.integers(0, children - 1))
         return st.lists(pair.filter(lambda p: p[0] != p[1]), min_size=1, max_size=3)
+    if isinstance(kind, K.Groups):
+        members = st.lists(st.integers(0, children - 1), min_size=1, max_size=children,
+                           unique=True)
+        group = st.one_of(members, st.tuples(members, st.one_of(st.none(),
+                                                                 st.floats(1.0, 8.0))))
+        return st.lists(group, max_size=3)
     if isinstance(kind, K.Image):
         return st.integers(0, 99).map(lambda seed: np.random.default_rng(seed).integers(
             0, 256, (3, 5, 3)).astype(np.uint8))

@@ -1,8 +1,11 @@
-"""Controlled blend c(b_1..b_n)(B_1..B_m) (Eq. 6): only the listed pairs of children blend.
+"""Controlled blend c(b_1..b_n)(B_1..B_m) (Eq. 6): only the listed groups of children blend.
 
 This is a reconstruction: Guy & Wyvill's blending graph (the paper's ref. [3]) expressed as a
-union of pairwise blend groups: each listed pair (j, k) blends f_j + f_k, a child blends with no
-one else, and the field is the max over the pairs (and over children in no pair, alone).
+union of blend groups.  The paper's form lists pairs (j, k), each blending f_j + f_k.  Beyond the
+paper (its Section 4: "the blends can only be specified between two objects at once, and super
+elliptic blends are not allowed"), a group may hold any number of children and blend them by
+Ricci's super-elliptic blend of its own exponent n (Eq. 4; n = 1 is the plain sum).  The field is
+the max over the groups (and over children in no group, alone).
 """
 
 from __future__ import annotations
@@ -11,67 +14,113 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ..checks import Number
 from ..jit import kernel
 from .base import Node, Operator, OperatorKernels, pick, register, weighted_color
-from .params import Pairs, Param
+from .params import LARGEST_N, Groups, Pairs, Param
+
+
+@kernel
+def group_value(vs, b, p, q, size, n, col):
+    """The super-elliptic blend (Eq. 4) of the children listed at p[q:q + size], on column col
+    of the value stack (0: the field); n = 1 is their plain sum, in list order."""
+    if n == 1.0:
+        s = 0.0
+        for i in range(size):
+            s += vs[b + int(p[q + i]), col]
+        return s
+    m = 0.0
+    for i in range(size):
+        m = max(m, vs[b + int(p[q + i]), col])
+    if m <= 0.0:
+        return 0.0
+    s = 0.0
+    for i in range(size):
+        s += (vs[b + int(p[q + i]), col] / m) ** n
+    return m * s ** (1.0 / n)
 
 
 @kernel
 def controlled_combine(vs, b, k, p, o, mode):
-    """params: npairs, the pairs' child indices, nsingle, the single children's indices."""
-    npairs = int(p[o])
-    nsingle = int(p[o + 1 + 2 * npairs])
+    """params: ngroups; per group its exponent n, size and child indices; nsingle, the single
+    children's indices.  The gradient of the winning group is sum (f_i / F)^(n - 1) grad f_i,
+    its colour weighted by f_i^n."""
+    ngroups = int(p[o])
+    q = o + 1
     best_f = -1.0
-    bi = bj = -1
-    for q in range(npairs):
-        j = b + int(p[o + 1 + 2 * q])
-        m = b + int(p[o + 2 + 2 * q])
-        f = vs[j, 0] + vs[m, 0]
+    best_q = -1
+    best_j = -1
+    for _ in range(ngroups):
+        size = int(p[q + 1])
+        f = group_value(vs, b, p, q + 2, size, p[q], 0)
         if f > best_f:
-            best_f, bi, bj = f, j, m
-    for q in range(nsingle):
-        j = b + int(p[o + 2 + 2 * npairs + q])
+            best_f, best_q, best_j = f, q, -1
+        q += 2 + size
+    for i in range(int(p[q])):
+        j = b + int(p[q + 1 + i])
         if vs[j, 0] > best_f:
-            best_f, bi, bj = vs[j, 0], j, -1
+            best_f, best_q, best_j = vs[j, 0], -1, j
     if mode > 0:
-        if bj < 0:
-            g0, g1, g2 = vs[bi, 1], vs[bi, 2], vs[bi, 3]
-            c0, c1, c2 = vs[bi, 4], vs[bi, 5], vs[bi, 6]
+        if best_j >= 0:
+            for c in range(1, 7):
+                vs[b, c] = vs[best_j, c]
         else:
-            g0, g1, g2 = vs[bi, 1] + vs[bj, 1], vs[bi, 2] + vs[bj, 2], vs[bi, 3] + vs[bj, 3]
-            if best_f > 0.0:
-                wi, wj = vs[bi, 0] / best_f, vs[bj, 0] / best_f
-                c0 = wi * vs[bi, 4] + wj * vs[bj, 4]
-                c1 = wi * vs[bi, 5] + wj * vs[bj, 5]
-                c2 = wi * vs[bi, 6] + wj * vs[bj, 6]
+            n = p[best_q]
+            size = int(p[best_q + 1])
+            g0 = g1 = g2 = c0 = c1 = c2 = 0.0
+            wsum = 0.0
+            for i in range(size):
+                j = b + int(p[best_q + 2 + i])
+                w = 1.0 if n == 1.0 or best_f <= 0.0 else (vs[j, 0] / best_f) ** (n - 1.0)
+                g0 += w * vs[j, 1]
+                g1 += w * vs[j, 2]
+                g2 += w * vs[j, 3]
+                cw = vs[j, 0] if n == 1.0 or best_f <= 0.0 else vs[j, 0] * w
+                c0 += cw * vs[j, 4]
+                c1 += cw * vs[j, 5]
+                c2 += cw * vs[j, 6]
+                wsum += cw
+            if wsum > 0.0:
+                c0, c1, c2 = c0 / wsum, c1 / wsum, c2 / wsum
             else:
-                c0, c1, c2 = vs[bi, 4], vs[bi, 5], vs[bi, 6]
-        vs[b, 1], vs[b, 2], vs[b, 3] = g0, g1, g2
-        vs[b, 4], vs[b, 5], vs[b, 6] = c0, c1, c2
+                j = b + int(p[best_q + 2])
+                c0, c1, c2 = vs[j, 4], vs[j, 5], vs[j, 6]
+            vs[b, 1], vs[b, 2], vs[b, 3] = g0, g1, g2
+            vs[b, 4], vs[b, 5], vs[b, 6] = c0, c1, c2
     vs[b, 0] = best_f
 
 
 @kernel
 def controlled_rows(vs, b, k, p, o, nb):
-    npairs = int(p[o])
-    nsingle = int(p[o + 1 + 2 * npairs])
+    ngroups = int(p[o])
     for m in range(nb):
         best = -1.0
-        for q in range(npairs):
-            best = max(best, vs[b + int(p[o + 1 + 2 * q]), m] + vs[b + int(p[o + 2 + 2 * q]), m])
-        for q in range(nsingle):
-            best = max(best, vs[b + int(p[o + 2 + 2 * npairs + q]), m])
+        q = o + 1
+        for _ in range(ngroups):
+            size = int(p[q + 1])
+            best = max(best, group_value(vs, b, p, q + 2, size, p[q], m))
+            q += 2 + size
+        for i in range(int(p[q])):
+            best = max(best, vs[b + int(p[q + 1 + i]), m])
         vs[b, m] = best
 
 
 @register
 class ControlledBlend(Operator):
-    """Controlled blend (Eq. 6): each listed pair (j, k) of children blends f_j + f_k; the field
-    is the max over the pairs and the unpaired children.  Zero children keep their places under
-    specialisation (the pairs index them)."""
+    """Controlled blend (Eq. 6): each listed pair (j, k) of children blends f_j + f_k, and each
+    listed group blends its children by the super-elliptic blend (Eq. 4) of its exponent (the
+    node's ``n`` unless the group gives its own); the field is the max over the pairs, the groups
+    and the children in neither.  Zero children keep their places under specialisation (the
+    lists index them).  Each group's gradient is at most the sum of its children's, so the
+    Lipschitz bounds add."""
 
     TYPE = "controlled_blend"
-    PARAMS = (Param("pairs", Pairs(), (), "pairs (j, k) of child indices that blend"),)
+    PARAMS = (Param("pairs", Pairs(), (), "pairs (j, k) of child indices that blend"),
+              Param("groups", Groups(), (),
+                    "groups of child indices that blend, each [indices] or [[indices], n]",
+                    since=3),
+              Param("n", Number(lo=1.0, hi=LARGEST_N, sample=(1.0, 8.0)), 1.0,
+                    "super-elliptic exponent of the groups that give none: 1 = sum", since=3))
     ZERO_FIRST = ZERO_REST = "keep"
     KERNELS = OperatorKernels(combine=controlled_combine, rows=controlled_rows)
 
@@ -81,24 +130,48 @@ class ControlledBlend(Operator):
             if not (0 <= i < m and 0 <= j < m) or i == j:
                 raise ValueError(
                     f"pairs[{k}] must be two different child indices in [0, {m}), got {[i, j]}")
+        for k, (members, _) in enumerate(self.groups):
+            if not all(0 <= i < m for i in members) or len(set(members)) != len(members):
+                raise ValueError(f"groups[{k}] must be different child indices in [0, {m}), "
+                                 f"got {list(members)}")
+
+    @property
+    def blend_groups(self) -> tuple[tuple[tuple[int, ...], float], ...]:
+        """Every group with its exponent: the pairs (n = 1), then the groups."""
+        return (tuple((pair, 1.0) for pair in self.pairs)
+                + tuple((g, self.n if n is None else n) for g, n in self.groups))
 
     @property
     def singles(self) -> tuple[int, ...]:
-        """The children in no pair."""
-        paired = {i for p in self.pairs for i in p}
-        return tuple(i for i in range(len(self.children)) if i not in paired)
+        """The children in no pair or group."""
+        grouped = {i for g, _ in self.blend_groups for i in g}
+        return tuple(i for i in range(len(self.children)) if i not in grouped)
 
     def op_params(self):
-        flat = [v for pair in self.pairs for v in pair]
-        return [len(self.pairs), *flat, len(self.singles), *self.singles]
+        out = [len(self.blend_groups)]
+        for members, n in self.blend_groups:
+            out += [n, len(members), *members]
+        return [*out, len(self.singles), *self.singles]
 
     def _ref(self, P, look=None):
         f, g, c = self._refs(P, look)
         cand_f, cand_g, cand_c = [], [], []
-        for i, j in self.pairs:
-            cand_f.append(f[i] + f[j])
-            cand_g.append(g[i] + g[j])
-            cand_c.append(weighted_color(f[[i, j]], c[[i, j]]))
+        for members, n in self.blend_groups:
+            fm, gm, cm = f[list(members)], g[list(members)], c[list(members)]
+            if n == 1.0:
+                value = fm.sum(axis=0)
+                cand_g.append(gm.sum(axis=0))
+                cand_c.append(weighted_color(fm, cm))
+            else:
+                top = fm.max(axis=0)
+                safe = np.where(top > 0.0, top, 1.0)
+                value = np.where(top > 0.0, top * ((fm / safe) ** n).sum(axis=0) ** (1.0 / n),
+                                 0.0)
+                ratio = fm / np.where(value > 0.0, value, 1.0)
+                w = np.where(value > 0.0, ratio ** (n - 1.0), 1.0)
+                cand_g.append((w[:, :, None] * gm).sum(axis=0))
+                cand_c.append(weighted_color(fm * w, cm))
+            cand_f.append(value)
         for i in self.singles:
             cand_f.append(f[i])
             cand_g.append(g[i])
@@ -108,6 +181,9 @@ class ControlledBlend(Operator):
         return cf.max(axis=0), pick(k, np.stack(cand_g)), pick(k, np.stack(cand_c))
 
 
-def controlled_blend(nodes: Sequence[Node], pairs: Sequence[Sequence[int]]) -> ControlledBlend:
-    """Controlled blend, Eq. 6: only the listed pairs (i, j) of ``nodes`` blend."""
-    return ControlledBlend(*nodes, pairs=pairs)
+def controlled_blend(nodes: Sequence[Node], pairs: Sequence[Sequence[int]] = (),
+                     groups: Sequence = (), n: float = 1.0) -> ControlledBlend:
+    """Controlled blend, Eq. 6: only the listed pairs (i, j) of ``nodes`` blend (f_i + f_j), and
+    the listed groups, each by the super-elliptic blend (Eq. 4) of exponent ``n`` or its own:
+    ``groups=[(0, 1, 2), ((2, 3), 4.0)]``."""
+    return ControlledBlend(*nodes, pairs=pairs, groups=groups, n=n)

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from .. import texture as tex
-from ..checks import AXES, Kind, Vec3, frozen, is_vector, short_repr
+from ..checks import AXES, Kind, Number, Vec3, frozen, is_vector, short_repr
 
 #: Marks a parameter without a default.
 REQUIRED: Any = object()
@@ -71,6 +71,49 @@ class Pairs(Kind):
 
     def to_json(self, value, images):
         return [list(p) for p in value]
+
+
+#: Largest exponent of a super-elliptic blend (beyond it the blend is the union to 1e-6).
+LARGEST_N = 1e6
+_EXPONENT = Number(lo=1.0, hi=LARGEST_N)
+
+
+@dataclass(frozen=True)
+class Groups(Kind):
+    """Groups of child indices that blend together, each with its own super-elliptic exponent or
+    None for the node's ``n``: given as index lists ``[0, 1, 2]`` or as ``([0, 1, 2], 4.0)``."""
+
+    schema = "list of index groups, each [indices] or [[indices], n]"
+
+    def check(self, name: str, value: Any) -> tuple[tuple[tuple[int, ...], float | None], ...]:
+        if isinstance(value, str | bytes) or not _iterable(value):
+            raise ValueError(f"{name} must be a list of index groups, got {short_repr(value)}")
+        out = []
+        for k, group in enumerate(value):
+            n = None
+            if _iterable(group) and not isinstance(group, str) and len(group) == 2 \
+                    and _iterable(group[0]) and not isinstance(group[0], str):
+                group, n = group
+                n = None if n is None else _EXPONENT.check(f"{name}[{k}] exponent", n)
+            members = list(group) if _iterable(group) and not isinstance(group, str) else None
+            if not members or not all(isinstance(v, numbers.Integral)
+                                      and not isinstance(v, bool | np.bool_) for v in members):
+                raise ValueError(f"{name}[{k}] must be a non-empty list of child indices, "
+                                 f"optionally with an exponent: [indices] or [[indices], n], "
+                                 f"got {short_repr(group)}")
+            out.append((tuple(int(v) for v in members), n))
+        return tuple(out)
+
+    def to_json(self, value, images):
+        return [[list(members), n] for members, n in value]
+
+
+def _iterable(value: Any) -> bool:
+    try:
+        iter(value)
+    except TypeError:
+        return False
+    return True
 
 
 @dataclass(frozen=True)
@@ -130,3 +173,5 @@ class Param:
     kind: Kind
     default: Any = REQUIRED
     doc: str = field(default="", compare=False)
+    #: The scene-file version that added it: older files may lack it (it takes its default).
+    since: int = field(default=1, compare=False)

@@ -7,9 +7,7 @@ import numpy as np
 from ..checks import Number
 from ..jit import kernel
 from .base import Node, Operator, OperatorKernels, register, weighted_color
-from .params import Param
-
-LARGEST_N = 1e6
+from .params import LARGEST_N, Param
 
 
 @kernel
