@@ -264,3 +264,20 @@ def test_concurrent_evaluation_from_python_threads_is_safe():
             np.testing.assert_array_equal(a, b)
     for got in images:
         np.testing.assert_array_equal(got, image)
+
+
+def test_an_equal_tree_built_again_reuses_the_compiled_program():
+    import gc
+
+    from blobtree.nodes.base import _PROGRAMS
+
+    def build(r):
+        return bt.blend(bt.Point(radius=r), bt.Cone((0, 0, 0), (1, 0, 0), 0.5, 0.2))
+
+    a = build(1.0)
+    assert build(1.0).program() is a.program()  # a notebook cell run twice
+    assert build(1.1).program() is not a.program()
+    key = a.key
+    del a
+    gc.collect()
+    assert key not in _PROGRAMS  # kept only while a tree holds it

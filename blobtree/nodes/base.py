@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import hashlib
 import inspect
+import weakref
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from functools import cached_property
@@ -166,6 +167,8 @@ def freeze_registry(by: str) -> None:
 
 #: The engine's tree compiler, installed by ``blobtree.engine`` (the model does not need it).
 _compiler: list[Callable[[Node], Any]] = []
+#: Compiled programs by tree key, while some tree still holds its program.
+_PROGRAMS: weakref.WeakValueDictionary[str, Any] = weakref.WeakValueDictionary()
 
 
 def use_compiler(compile_tree: Callable[[Node], Any]) -> None:
@@ -422,7 +425,12 @@ class Node:
     def _program(self) -> Any:
         if not _compiler:
             raise RuntimeError("no engine installed: import blobtree (not only blobtree.nodes)")
-        return _compiler[0](self)
+        # an equal tree built again (a notebook cell run twice) reuses the compiled program
+        program = _PROGRAMS.get(self.key)
+        if program is None:
+            program = _compiler[0](self)
+            _PROGRAMS[self.key] = program
+        return program
 
     def field(self, P: Any) -> np.ndarray:
         """Field values at (N, 3) points, in [0, 1]."""

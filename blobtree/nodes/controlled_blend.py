@@ -42,60 +42,90 @@ def group_value(vs, b, p, q, size, n, col):
 
 @kernel
 def controlled_combine(vs, b, k, p, o, mode):
-    """params: ngroups; per group its exponent n, size and child indices; nsingle, the single
-    children's indices.  The gradient of the winning group is sum (f_i / F)^(n - 1) grad f_i,
-    its colour weighted by f_i^n."""
-    ngroups = int(p[o])
-    q = o + 1
+    """params: npairs and the pairs' child indices; ngroups and per group its exponent n, size
+    and child indices; nsingle and the single children's indices.  The pairs come first, read
+    as directly as before groups existed (the shell's body is pairs only).  A winning group's
+    gradient is sum (f_i / F)^(n - 1) grad f_i, its colour weighted by f_i^n."""
+    npairs = int(p[o])
     best_f = -1.0
-    best_q = -1
-    best_j = -1
+    bi = bj = -1  # the winning pair, or a single child (bj = -1)
+    best_q = -1  # or the winning group's offset in p
+    for q in range(npairs):
+        j = b + int(p[o + 1 + 2 * q])
+        m = b + int(p[o + 2 + 2 * q])
+        f = vs[j, 0] + vs[m, 0]
+        if f > best_f:
+            best_f, bi, bj = f, j, m
+    q = o + 1 + 2 * npairs
+    ngroups = int(p[q])
+    q += 1
     for _ in range(ngroups):
         size = int(p[q + 1])
         f = group_value(vs, b, p, q + 2, size, p[q], 0)
         if f > best_f:
-            best_f, best_q, best_j = f, q, -1
+            best_f, best_q = f, q
         q += 2 + size
     for i in range(int(p[q])):
         j = b + int(p[q + 1 + i])
         if vs[j, 0] > best_f:
-            best_f, best_q, best_j = vs[j, 0], -1, j
+            best_f, bi, bj, best_q = vs[j, 0], j, -1, -1
     if mode > 0:
-        if best_j >= 0:
+        if best_q >= 0:
+            _group_gradient_colour(vs, b, p, best_q, best_f)
+        elif bj < 0:
             for c in range(1, 7):
-                vs[b, c] = vs[best_j, c]
+                vs[b, c] = vs[bi, c]
         else:
-            n = p[best_q]
-            size = int(p[best_q + 1])
-            g0 = g1 = g2 = c0 = c1 = c2 = 0.0
-            wsum = 0.0
-            for i in range(size):
-                j = b + int(p[best_q + 2 + i])
-                w = 1.0 if n == 1.0 or best_f <= 0.0 else (vs[j, 0] / best_f) ** (n - 1.0)
-                g0 += w * vs[j, 1]
-                g1 += w * vs[j, 2]
-                g2 += w * vs[j, 3]
-                cw = vs[j, 0] if n == 1.0 or best_f <= 0.0 else vs[j, 0] * w
-                c0 += cw * vs[j, 4]
-                c1 += cw * vs[j, 5]
-                c2 += cw * vs[j, 6]
-                wsum += cw
-            if wsum > 0.0:
-                c0, c1, c2 = c0 / wsum, c1 / wsum, c2 / wsum
+            vs[b, 1] = vs[bi, 1] + vs[bj, 1]
+            vs[b, 2] = vs[bi, 2] + vs[bj, 2]
+            vs[b, 3] = vs[bi, 3] + vs[bj, 3]
+            if best_f > 0.0:
+                wi, wj = vs[bi, 0] / best_f, vs[bj, 0] / best_f
+                for c in range(4, 7):
+                    vs[b, c] = wi * vs[bi, c] + wj * vs[bj, c]
             else:
-                j = b + int(p[best_q + 2])
-                c0, c1, c2 = vs[j, 4], vs[j, 5], vs[j, 6]
-            vs[b, 1], vs[b, 2], vs[b, 3] = g0, g1, g2
-            vs[b, 4], vs[b, 5], vs[b, 6] = c0, c1, c2
+                for c in range(4, 7):
+                    vs[b, c] = vs[bi, c]
     vs[b, 0] = best_f
 
 
 @kernel
+def _group_gradient_colour(vs, b, p, q, f):
+    """Gradient and colour of the group at p[q] (exponent, size, members) whose field is f."""
+    n = p[q]
+    size = int(p[q + 1])
+    g0 = g1 = g2 = c0 = c1 = c2 = 0.0
+    wsum = 0.0
+    for i in range(size):
+        j = b + int(p[q + 2 + i])
+        w = 1.0 if n == 1.0 or f <= 0.0 else (vs[j, 0] / f) ** (n - 1.0)
+        g0 += w * vs[j, 1]
+        g1 += w * vs[j, 2]
+        g2 += w * vs[j, 3]
+        cw = vs[j, 0] * w
+        c0 += cw * vs[j, 4]
+        c1 += cw * vs[j, 5]
+        c2 += cw * vs[j, 6]
+        wsum += cw
+    if wsum > 0.0:
+        c0, c1, c2 = c0 / wsum, c1 / wsum, c2 / wsum
+    else:
+        j = b + int(p[q + 2])
+        c0, c1, c2 = vs[j, 4], vs[j, 5], vs[j, 6]
+    vs[b, 1], vs[b, 2], vs[b, 3] = g0, g1, g2
+    vs[b, 4], vs[b, 5], vs[b, 6] = c0, c1, c2
+
+
+@kernel
 def controlled_rows(vs, b, k, p, o, nb):
-    ngroups = int(p[o])
+    npairs = int(p[o])
     for m in range(nb):
         best = -1.0
-        q = o + 1
+        for q in range(npairs):
+            best = max(best, vs[b + int(p[o + 1 + 2 * q]), m] + vs[b + int(p[o + 2 + 2 * q]), m])
+        q = o + 1 + 2 * npairs
+        ngroups = int(p[q])
+        q += 1
         for _ in range(ngroups):
             size = int(p[q + 1])
             best = max(best, group_value(vs, b, p, q + 2, size, p[q], m))
@@ -138,8 +168,12 @@ class ControlledBlend(Operator):
     @property
     def blend_groups(self) -> tuple[tuple[tuple[int, ...], float], ...]:
         """Every group with its exponent: the pairs (n = 1), then the groups."""
-        return (tuple((pair, 1.0) for pair in self.pairs)
-                + tuple((g, self.n if n is None else n) for g, n in self.groups))
+        return (tuple((pair, 1.0) for pair in self.pairs) + self._groups)
+
+    @property
+    def _groups(self) -> tuple[tuple[tuple[int, ...], float], ...]:
+        """The groups with their exponents (the node's n where a group gives none)."""
+        return tuple((g, self.n if n is None else n) for g, n in self.groups)
 
     @property
     def singles(self) -> tuple[int, ...]:
@@ -148,8 +182,8 @@ class ControlledBlend(Operator):
         return tuple(i for i in range(len(self.children)) if i not in grouped)
 
     def op_params(self):
-        out = [len(self.blend_groups)]
-        for members, n in self.blend_groups:
+        out = [len(self.pairs), *(v for pair in self.pairs for v in pair), len(self._groups)]
+        for members, n in self._groups:
             out += [n, len(members), *members]
         return [*out, len(self.singles), *self.singles]
 
