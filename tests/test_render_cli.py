@@ -84,3 +84,35 @@ def test_ctrl_c_stops_the_render_and_writes_nothing(tmp_path, monkeypatch):
     done.clear()
     r = CliRunner().invoke(main, ["render", *args, "--checkpoint", str(tmp_path / "ck")])
     assert r.exit_code == 130 and "--resume" in r.output and not out.exists()
+
+
+def test_looks_from_the_command_line(tmp_path):
+    """--look picks the style (the studio backdrop fades toward the bottom, the paper look is
+    plain white), --background makes any look's backdrop plain, a bad look is refused."""
+    scene = tmp_path / "s.json"
+    bt.save(bt.Point(radius=2.0).color((0.9, 0.5, 0.2)), scene)
+
+    def corners(*args):
+        out = tmp_path / "l.png"
+        r = CliRunner().invoke(main, ["render", str(scene), "-o", str(out), "--size", "24x40",
+                                      "--quiet", *args])
+        assert r.exit_code == 0, r.output
+        img = np.asarray(Image.open(out)).astype(int)
+        return img[0, 0], img[-1, 0]
+
+    top, bottom = corners()  # studio by default
+    assert top.sum() > bottom.sum() + 60
+    top, bottom = corners("--look", "paper")
+    assert top.tolist() == bottom.tolist() == [255, 255, 255]
+    top, bottom = corners("--look", "glossy", "--background", "0.2,0.4,0.6")
+    assert top.tolist() == bottom.tolist() == [51, 102, 153]
+    r = CliRunner().invoke(main, ["render", str(scene), "--look", "shiny"])
+    assert r.exit_code == 2 and "shiny" in r.output
+
+
+def test_figures_command_takes_a_look(tmp_path):
+    r = CliRunner().invoke(main, ["figures", "-o", str(tmp_path), "--only", "3", "--height", "32",
+                                  "--samples", "1", "--look", "paper"])
+    assert r.exit_code == 0, r.output
+    img = np.asarray(Image.open(tmp_path / "figure-3.png"))
+    assert img.shape[0] == 32 and img[0, 0].tolist() == [255, 255, 255]
