@@ -20,11 +20,13 @@ from .murex import (
     varix,
     whorl,
 )
+from .pigment import ActivatorInhibitor, pigment_texture
 from .whorl import whorl126
 
 __all__ = [
-    "FIGURES", "MUREX_SPIRAL", "TABLE_1", "TABLE_2", "Choices", "HelicoSpiral", "body_whorl",
+    "FIGURES", "MUREX_SPIRAL", "TABLE_1", "TABLE_2", "ActivatorInhibitor", "Choices",
+    "HelicoSpiral", "body_whorl",
     "bumps", "canal_spines", "generating_surface", "helico_spiral", "inside_wall",
-    "inside_whorl", "murex", "opening", "place", "shell", "varices", "varix", "whorl",
-    "whorl126",
+    "inside_whorl", "murex", "opening", "pigment_texture", "place", "shell", "varices", "varix",
+    "whorl", "whorl126",
 ]
