@@ -4,8 +4,9 @@ The paper's textures "were created in a paint program"; its authors point to rea
 (Meinhardt, *The Algorithmic Beauty of Sea Shells*, the paper's reference [5]; Fowler, Meinhardt
 and Prusinkiewicz, SIGGRAPH 1992, its reference [2]).  A shell grows at its lip: a row of cells
 along the lip carries an activator a and an inhibitor b, and the pigment laid down at each moment
-is a record of a along the lip.  So the texture's rows are time (the growth direction, u along
-the spiral) and its columns are the cells along the lip (v around the whorl).
+is a record of a along the lip.  So the texture's columns are time (the growth direction, u
+along the spiral, as ``texture.sample`` reads u across an image) and its rows are the cells
+along the lip (v around the whorl).
 
 The model, Meinhardt's activator-inhibitor equations (ABoSS, Eq. 2.1), per cell i:
 
@@ -110,10 +111,10 @@ def pigment_texture(height: int = 256, width: int = 128, model: ActivatorInhibit
                     warmup: int = 400, ground: np.ndarray = GROUND,
                     pigment: np.ndarray = PIGMENT) -> np.ndarray:
     """An (height, width, 3) uint8 texture of pigment grown by :func:`grow` (after ``warmup``
-    steps, so the pattern has formed): ``height`` rows of growth (u along the spiral), ``width``
-    cells along the lip (v).  Pigment rises with the activator: a pale tint at the uniform
-    steady state a*, full pigment from 3 a*."""
-    a = grow(width, height, steps_per_row, model, seed, warmup)
+    steps, so the pattern has formed): ``width`` columns of growth (u along the spiral),
+    ``height`` cells along the lip (v around the whorl).  Pigment rises with the activator: a
+    pale tint at the uniform steady state a*, full pigment from 3 a*."""
+    a = grow(height, width, steps_per_row, model, seed, warmup).T
     a_star = model.steady_state()[0]
     t = np.clip((a / a_star - 0.5) / 2.5, 0.0, 1.0)[..., None]
     rgb = np.asarray(ground, float) + (np.asarray(pigment, float) - np.asarray(ground, float)) * t
