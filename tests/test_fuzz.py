@@ -144,7 +144,7 @@ SMALL_TREE = bt.blend(_point(0.8), _point(0.8, 0.6)).color((0.2, 0.6, 0.9))
                shadows=st.booleans(), background=st.tuples(*[st.floats(0.0, 1.0)] * 3),
                tile=st.integers(1, 8), threads=st.integers(1, 2), tree=st.just(SMALL_TREE),
                look=st.sampled_from(["studio", "glossy", "paper"]),
-               occlusion=st.floats(0.0, 1.0), softness=st.floats(0.0, 0.5),
+               occlusion=st.floats(0.0, 1.0), light_radius=st.floats(0.0, 30.0),
                sky=st.floats(0.0, 1.0), occlusion_radius=st.floats(0.001, 1.0)))
 def test_render_works_or_refuses(args):
     try:
@@ -189,7 +189,7 @@ COLOUR = st.tuples(*[st.floats(0.0, 1.0)] * 3)
         width=st.integers(1, 64), height=st.integers(1, 64), samples=st.integers(1, 4),
         shadows=st.booleans(), background=COLOUR,
         background_bottom=st.one_of(st.none(), COLOUR), occlusion=st.floats(0.0, 1.0),
-        softness=st.floats(0.0, 0.5), sky=st.floats(0.0, 1.0)))))
+        light_radius=st.floats(0.0, 30.0), sky=st.floats(0.0, 1.0)))))
 def test_cameras_lights_and_settings_work_or_refuse(call):
     make, kwargs = call
     try:

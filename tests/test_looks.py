@@ -103,24 +103,38 @@ def test_occlusion_darkens_where_other_surface_is_near():
     assert _occlusion_at(ball, top, radius=0.6)[0] < 0.05
 
 
-def test_soft_shadows_only_widen_the_shadow_edge():
+def _ball_over_ground(light_radius: float, height: float = 0.2) -> np.ndarray:
     ground = bt.Point(radius=4.0).scale(1.0, 0.15, 1.0).translate(0.0, -1.0, 0.0)
-    ball = bt.Point(radius=0.6).translate(0.0, 0.2, 0.0)
-    tree = bt.union(ground, ball)
+    ball = bt.Point(radius=0.6).translate(0.0, height, 0.0)
     cam = Camera(eye=(0.0, 3.0, 4.0), target=(0.0, -0.6, 0.0), fov=40.0)
-    light = [Light(direction=(0.3, -1.0, 0.1))]
-    kw = dict(camera=cam, lights=light, background=BLACK, look="paper", ambient=0.0,
-              specular=0.0)
-    hard = render(tree, 64, 64, softness=0.0, **kw).astype(int)
-    soft = render(tree, 64, 64, softness=0.3, **kw).astype(int)
+    return render(bt.union(ground, ball), 64, 64, camera=cam, background=BLACK, look="paper",
+                  lights=[Light(direction=(0.3, -1.0, 0.1))], ambient=0.0, specular=0.0,
+                  light_radius=light_radius).astype(int)
+
+
+def test_soft_shadows_only_widen_the_shadow_edge():
+    hard = _ball_over_ground(0.0)
+    soft = _ball_over_ground(6.0)
     assert np.all(soft <= hard)  # a penumbra only takes light away
     darker = (soft < hard - 8).any(axis=2)
     assert darker.sum() > 20  # a visible penumbra...
     assert darker.sum() < 0.5 * covered(hard).sum()  # ...around the shadow, not everywhere
     # a lone surface casts on nothing: soft and hard shadows give the same bytes
-    lone = dict(kw, camera=Camera(eye=(0.0, 0.0, 5.0)))
-    assert (render(ball, 32, 32, softness=0.3, **lone) ==
-            render(ball, 32, 32, softness=0.0, **lone)).all()
+    lone = dict(camera=Camera(eye=(0.0, 0.0, 5.0)), background=BLACK, look="paper")
+    ball = bt.Point(radius=0.6)
+    assert (render(ball, 32, 32, light_radius=6.0, **lone) ==
+            render(ball, 32, 32, light_radius=0.0, **lone)).all()
+
+
+def test_penumbra_grows_with_the_light_and_the_occluders_height():
+    """An area light's penumbra is about (distance occluder to receiver) x (its angular size)
+    wide: a larger light, or the ball lifted higher above the ground, darkens more of it."""
+    def penumbra_pixels(radius, height=0.2):
+        hard = _ball_over_ground(0.0, height)
+        return int(((_ball_over_ground(radius, height) < hard - 8).any(axis=2)).sum())
+
+    assert penumbra_pixels(2.0) < penumbra_pixels(6.0) < penumbra_pixels(12.0)
+    assert penumbra_pixels(6.0, height=0.0) < penumbra_pixels(6.0, height=0.6)
 
 
 def test_paper_look_is_the_plain_default_settings():
@@ -138,7 +152,8 @@ def test_paper_look_is_the_plain_default_settings():
 @pytest.mark.parametrize("kw, words", [
     (dict(look="shiny"), "look must be one of"),
     (dict(occlusion=2.0), "occlusion"),
-    (dict(softness=-0.1), "softness"),
+    (dict(light_radius=-0.1), "light_radius"),
+    (dict(light_radius=45.0), "light_radius"),
     (dict(sky=1.5), "sky"),
     (dict(occlusion_radius=0.0), "occlusion_radius"),
 ])

@@ -63,7 +63,7 @@ def render(tree, width: int, height: int, camera: Camera | None = None,
     RGB triple in [0, 1], replaces the look's backdrop by that plain colour; ``progress`` shows a
     bar over tiles; ``threads`` (default: numba's thread count) render tiles side by side;
     ``shading`` overrides any field of :class:`RenderSettings` the look sets (``ambient``,
-    ``specular``, ``shininess``, ``occlusion``, ``softness``, ``sky``...) and the jitter
+    ``specular``, ``shininess``, ``occlusion``, ``light_radius``, ``sky``...) and the jitter
     ``seed``.
 
     ``source(prog, camera, lights, settings, rects)``, if given, renders the rectangles elsewhere

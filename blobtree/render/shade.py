@@ -91,8 +91,8 @@ def linear_to_srgb_byte(c):
 
 
 #: Layout of the packed look (``RenderSettings.packed_look``): ambient, specular, shininess,
-#: occlusion strength, occlusion radius (scene units), shadow softness (field units), sky.
-AMBIENT, SPECULAR, SHININESS, OCCLUSION, OCCLUSION_RADIUS, SOFTNESS, SKY = range(7)
+#: occlusion strength, occlusion radius (scene units), tan of the lights' angular radius, sky.
+AMBIENT, SPECULAR, SHININESS, OCCLUSION, OCCLUSION_RADIUS, LIGHT_TAN, SKY = range(7)
 #: Field samples along the normal for ambient occlusion.
 OCCLUSION_SAMPLES = 4
 
@@ -125,6 +125,20 @@ def occlusion(code, params, boxes, local, llo, lhi, px, py, pz, nx, ny, nz, slop
 
 
 @kernel
+def penumbra(code, params, boxes, x, y, z, t, light_tan, vstack, pstack):
+    """How much of an area light of angular radius atan(light_tan) a shadow ray that missed
+    still sees, from the point (x, y, z) at distance t where it passed nearest another surface:
+    that surface lies about d = (0.5 - f) / |grad f| away (the field's first-order Taylor
+    estimate), and the light's disc, t * light_tan wide there, is seen in full once d exceeds
+    it (the penumbra of an area light, estimated from one ray)."""
+    interp.eval_point(code, params, boxes, x, y, z, 2, vstack, pstack)  # (shading's mode)
+    g = np.sqrt(vstack[0, 1] ** 2 + vstack[0, 2] ** 2 + vstack[0, 3] ** 2)
+    if g <= 0.0 or t <= 0.0:
+        return 1.0
+    return _smoothstep((0.5 - vstack[0, 0]) / (g * t * light_tan))
+
+
+@kernel
 def _smoothstep(x):
     """0 below 0, 1 above 1, the cubic 3x^2 - 2x^3 between."""
     x = min(max(x, 0.0), 1.0)
@@ -140,9 +154,8 @@ def shade(code, params, boxes, lips, local, llo, lhi, px, py, pz, vx, vy, vz, li
     and carries each shadow ray while it stays in that box; the full program takes it on.
 
     ``look`` (see :data:`AMBIENT` ...): the ambient light, brighter from above by ``SKY`` and
-    darkened by the field's :func:`occlusion`; Blinn-Phong lights whose shadow rays, when they
-    miss, still darken by how close they passed to a surface (the field's rise along them,
-    over ``SOFTNESS``): the penumbra of an area light, from one ray."""
+    darkened by the field's :func:`occlusion`; Blinn-Phong lights of angular radius
+    atan(``LIGHT_TAN``), whose shadow rays, when they miss, still darken by :func:`penumbra`."""
     interp.eval_point(local[0], params, local[1], px, py, pz, 2, vstack, pstack)
     # The field decreases outward, so the outward normal is -grad f.
     nx, ny, nz = -vstack[0, 1], -vstack[0, 2], -vstack[0, 3]
@@ -159,7 +172,7 @@ def shade(code, params, boxes, lips, local, llo, lhi, px, py, pz, vx, vy, vz, li
         ambient *= 1.0 - look[OCCLUSION] * occlusion(
             code, params, boxes, local, llo, lhi, px, py, pz, nx, ny, nz, nn,
             look[OCCLUSION_RADIUS], vstack, pstack)
-    specular, shininess, softness = look[SPECULAR], look[SHININESS], look[SOFTNESS]
+    specular, shininess, light_tan = look[SPECULAR], look[SHININESS], look[LIGHT_TAN]
     r = ambient * ar
     g = ambient * ag
     b = ambient * ab
@@ -186,14 +199,15 @@ def shade(code, params, boxes, lips, local, llo, lhi, px, py, pz, vx, vy, vz, li
             if t0 <= t1:
                 ta, tb = clip_box(sx, sy, sz, lx, ly, lz, llo, lhi, t0, t1)
                 t_split = tb if ta == t0 and ta <= tb else -np.inf  # starts in the local box?
-                t, _, rise = trace_from_local(code, params, boxes, lips, local, sx, sy, sz, lx,
-                                              ly, lz, t0, t_split, t1, 0.5 * shadow_eps, 0.0,
-                                              0.05 * (tb - t0) + shadow_eps, 0.05, shadow_eps,
-                                              vstack, pstack)
+                t, _, rise, t_peak = trace_from_local(
+                    code, params, boxes, lips, local, sx, sy, sz, lx, ly, lz, t0, t_split, t1,
+                    0.5 * shadow_eps, 0.0, 0.05 * (tb - t0) + shadow_eps, 0.05, shadow_eps,
+                    vstack, pstack)
                 if t >= 0.0:
                     continue
-                if softness > 0.0:
-                    lit = _smoothstep((0.5 - rise) / softness)
+                if light_tan > 0.0 and rise > 0.0:
+                    lit = penumbra(code, params, boxes, sx + t_peak * lx, sy + t_peak * ly,
+                                   sz + t_peak * lz, t_peak, light_tan, vstack, pstack)
         hx, hy, hz = lx - vx, ly - vy, lz - vz
         hn = np.sqrt(hx * hx + hy * hy + hz * hz)
         spec = 0.0

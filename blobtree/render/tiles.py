@@ -8,6 +8,7 @@ byte-identical image.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -18,11 +19,11 @@ from ..jit import kernel
 from .camera import Camera, as_color
 from .shade import (
     AMBIENT,
+    LIGHT_TAN,
     OCCLUSION,
     OCCLUSION_RADIUS,
     SHININESS,
     SKY,
-    SOFTNESS,
     SPECULAR,
     Light,
     linear_to_srgb_byte,
@@ -58,8 +59,10 @@ class RenderSettings:
     is the backdrop's colour at the top of the image; ``background_bottom``, if given, the colour
     it fades to at the bottom (a studio backdrop).  ``occlusion`` (0-1) darkens the ambient light
     in creases, from field samples up to ``occlusion_radius`` (a fraction of the scene's
-    diagonal) along the normal; ``softness`` (field units, 0 = hard) widens shadow edges into a
-    penumbra; ``sky`` (0-1) dims the ambient light on surfaces facing down (-y)."""
+    diagonal) along the normal; ``light_radius`` (degrees, 0 = a point: hard shadows) is the
+    angular radius of every light seen from the scene, an area light whose penumbra widens with
+    the distance from occluder to receiver; ``sky`` (0-1) dims the ambient light on surfaces
+    facing down (-y)."""
 
     width: int
     height: int
@@ -73,7 +76,7 @@ class RenderSettings:
     background_bottom: tuple[float, float, float] | None = None
     occlusion: float = 0.0
     occlusion_radius: float = 0.03
-    softness: float = 0.0
+    light_radius: float = 0.0
     sky: float = 0.0
 
     def __post_init__(self) -> None:
@@ -88,7 +91,8 @@ class RenderSettings:
             object.__setattr__(self, name, Number(lo=0.0, hi=1e6).check(name, getattr(self, name)))
         for name, kind in (("occlusion", Number(lo=0.0, hi=1.0)),
                            ("occlusion_radius", Number(lo=0.0, hi=1.0, lo_open=True)),
-                           ("softness", Number(lo=0.0, hi=0.5)), ("sky", Number(lo=0.0, hi=1.0))):
+                           ("light_radius", Number(lo=0.0, hi=30.0)),
+                           ("sky", Number(lo=0.0, hi=1.0))):
             object.__setattr__(self, name, kind.check(name, getattr(self, name)))
         if not isinstance(self.shadows, bool | np.bool_):
             raise ValueError(f"shadows must be True or False, got {str(self.shadows)[:60]}")
@@ -99,7 +103,8 @@ class RenderSettings:
         look[AMBIENT], look[SPECULAR], look[SHININESS] = self.ambient, self.specular, \
             self.shininess
         look[OCCLUSION], look[OCCLUSION_RADIUS] = self.occlusion, self.occlusion_radius * diagonal
-        look[SOFTNESS], look[SKY] = self.softness, self.sky
+        look[LIGHT_TAN] = math.tan(math.radians(self.light_radius))
+        look[SKY] = self.sky
         return look
 
     def backdrop(self) -> tuple[np.ndarray, np.ndarray]:
@@ -118,7 +123,7 @@ LOOKS: dict[str, dict] = {
     "paper": {},
     "studio": dict(background=(0.99, 0.99, 0.99), background_bottom=(0.55, 0.57, 0.62),
                    ambient=0.3, sky=0.7, occlusion=1.0, occlusion_radius=0.08,
-                   softness=0.2, specular=0.15, shininess=30.0),
+                   light_radius=4.0, specular=0.15, shininess=30.0),
 }
 LOOKS["glossy"] = dict(LOOKS["studio"], specular=0.7, shininess=120.0)
 
@@ -246,7 +251,7 @@ def _pixel(code, params, boxes, lips, local, llo, lhi, cam, lights, lo, hi, widt
             v = (s // m + _uniform(seed, px, py, s, 1)) / rows
         dx, dy, dz = _ray(cam, width, height, px + u, py + v)
         t0, t1 = clip_box(cam[0], cam[1], cam[2], dx, dy, dz, lo, hi, t_start, np.inf)
-        t, inside, _ = trace_from_local(code, params, boxes, lips, local, cam[0], cam[1], cam[2],
+        t, inside, _, _ = trace_from_local(code, params, boxes, lips, local, cam[0], cam[1], cam[2],
                                      dx, dy, dz, t0, t_local, t1, eps_abs, eps_rel,
                                      min(DELTA0 * (t1 - t0), seg0) + eps_abs, DELTA0, eps_abs,
                                      vstack, pstack)

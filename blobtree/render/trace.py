@@ -95,11 +95,12 @@ def _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, ta, fa, tb, fb, tol, vs
 def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, eps_rel,
           delta0, vstack, pstack):
     """(First t in [t0, t1] where the field reaches ISO along the unit-direction ray, or -1;
-    the largest rise of the field seen along the way).
+    the largest rise of the field seen along the way, and the t where it peaked).
 
     The rise is the most the field climbed above its lowest value before (on the samples the
-    tracer takes): near 0 for a ray leaving a lone surface, close to ISO for one that grazed
-    another (soft shadows use it).  A ray that starts inside (f >= ISO at t0) hits at t0.
+    tracer takes): 0 for a ray leaving a lone convex surface, positive where the ray passed
+    another surface, which it came nearest around the peak (soft shadows use it).  A ray that
+    starts inside (f >= ISO at t0) hits at t0.
     ``eps_abs + eps_rel * t`` is the smallest step.  One Lipschitz bound serves every step
     inside its candidate segment, unless the steps it allows are short next to what is left of
     the segment (the bound is loose there): then a shorter segment takes a new bound.
@@ -108,9 +109,10 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
     f = interp.eval_point(code, params, boxes, ox + t * dx, oy + t * dy, oz + t * dz, 0,
                            vstack, pstack) - ISO
     if f >= 0.0:
-        return t, 0.0
+        return t, 0.0, t
     low = f
     rise = 0.0
+    t_peak = t
     delta = delta0
     while t < t1:
         ts = t
@@ -126,10 +128,13 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
             fn = interp.eval_point(code, params, boxes, ox + tn * dx, oy + tn * dy,
                                     oz + tn * dz, 0, vstack, pstack) - ISO
             if fn >= 0.0:
-                return _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, t, f, tn, fn,
-                               REFINE_TOL * eps, vstack, pstack), fn - low
+                t_hit = _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, t, f, tn, fn,
+                                REFINE_TOL * eps, vstack, pstack)
+                return t_hit, fn - low, t_hit
             low = min(low, fn)
-            rise = max(rise, fn - low)
+            if fn - low > rise:
+                rise = fn - low
+                t_peak = tn
             last = tn - t
             t = tn
             f = fn
@@ -139,7 +144,7 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
             if te - t > REBOUND * last:  # the bound is loose here: take one over a shorter stretch
                 delta = GROWTH * last
                 break
-    return -1.0, rise
+    return -1.0, rise, t_peak
 
 
 @kernel
@@ -148,21 +153,24 @@ def trace_from_local(code, params, boxes, lips, local, ox, oy, oz, dx, dy, dz, t
     """:func:`trace` over [t0, t1] on ``local = (code, boxes, lips)``, the program specialised
     to where the ray is up to t_split (first candidate segment ``delta_local``), then on the full
     program beyond it (first candidate segment ``frac`` of what is left, plus ``pad``).
-    Returns (t or -1, whether the hit came from the local program, the field's largest rise
-    as :func:`trace` gives it)."""
+    Returns (t or -1, whether the hit came from the local program, and the field's largest rise
+    and where it peaked, as :func:`trace` gives them)."""
     lcode, lboxes, llips = local
     rise = 0.0
+    t_peak = t0
     if t0 <= min(t1, t_split):
-        t, rise = trace(lcode, params, lboxes, llips, ox, oy, oz, dx, dy, dz, t0,
-                        min(t1, t_split), eps_abs, eps_rel, delta_local, vstack, pstack)
+        t, rise, t_peak = trace(lcode, params, lboxes, llips, ox, oy, oz, dx, dy, dz, t0,
+                                min(t1, t_split), eps_abs, eps_rel, delta_local, vstack, pstack)
         if t >= 0.0:
-            return t, True, rise
+            return t, True, rise, t_peak
     if t_split < t1:
         t0 = max(t0, t_split)
-        t, more = trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs,
-                        eps_rel, frac * (t1 - t0) + pad, vstack, pstack)
-        return t, False, max(rise, more)
-    return -1.0, False, rise
+        t, more, t_more = trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1,
+                                eps_abs, eps_rel, frac * (t1 - t0) + pad, vstack, pstack)
+        if more > rise:
+            rise, t_peak = more, t_more
+        return t, False, rise, t_peak
+    return -1.0, False, rise, t_peak
 
 
 @kernel
