@@ -8,6 +8,7 @@ import importlib.abc
 import sys
 from collections.abc import Iterator
 
+import click
 from tqdm import tqdm
 
 from ..jit import on_compile
@@ -60,3 +61,20 @@ def compile_notice(quiet: bool = False) -> Iterator[None]:
 
     with on_compile(notice):
         yield
+
+
+def floats(n: int):
+    """A click callback parsing ``"a,b,c"`` into a tuple of n floats (None stays None)."""
+
+    def parse(ctx, param, value):
+        if value is None:
+            return None
+        try:
+            out = tuple(float(v) for v in value.split(","))
+        except ValueError:
+            out = ()
+        if len(out) != n:
+            raise click.BadParameter(f"expected {n} comma-separated numbers, got {value!r}")
+        return out
+
+    return parse

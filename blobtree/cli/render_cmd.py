@@ -12,26 +12,9 @@ from ..files import check_writable
 from ..render import LOOKS, Camera, save_image
 from ..render.camera import default_camera
 from ..render.tiles import MAX_SIDE
-from . import compile_notice
+from . import compile_notice, floats
 from .cluster import cluster, cluster_options
 from .scenes import resolve_scene, scene_camera
-
-
-def _floats(n: int):
-    """A click callback parsing ``"a,b,c"`` into a tuple of n floats (None stays None)."""
-
-    def parse(ctx, param, value):
-        if value is None:
-            return None
-        try:
-            out = tuple(float(v) for v in value.split(","))
-        except ValueError:
-            out = ()
-        if len(out) != n:
-            raise click.BadParameter(f"expected {n} comma-separated numbers, got {value!r}")
-        return out
-
-    return parse
 
 
 def _size(ctx, param, value):
@@ -59,16 +42,16 @@ def _output(ctx, param, value):
 @click.option("--size", default="800x800", show_default=True, callback=_size,
               help="Image size WIDTHxHEIGHT in pixels.")
 @click.option("--samples", default=1, show_default=True, help="Rays per pixel (anti-aliasing).")
-@click.option("--eye", callback=_floats(3), help="Camera position x,y,z (default: framed view).")
-@click.option("--target", callback=_floats(3), help="Point looked at x,y,z.")
-@click.option("--up", default="0,1,0", show_default=True, callback=_floats(3),
+@click.option("--eye", callback=floats(3), help="Camera position x,y,z (default: framed view).")
+@click.option("--target", callback=floats(3), help="Point looked at x,y,z.")
+@click.option("--up", default="0,1,0", show_default=True, callback=floats(3),
               help="Camera up vector x,y,z.")
 @click.option("--fov", type=float, default=None, help="Vertical field of view, degrees.")
 @click.option("--no-shadows", is_flag=True, help="Skip shadow rays.")
 @click.option("--look", type=click.Choice(sorted(LOOKS)), default="studio", show_default=True,
               help="studio: soft backdrop, soft shadows, ambient occlusion; glossy: the same, "
                    "polished; paper: the plain style of the paper's figures.")
-@click.option("--background", callback=_floats(3),
+@click.option("--background", callback=floats(3),
               help="Plain background colour r,g,b in [0, 1] instead of the look's backdrop.")
 @click.option("--tile", default=64, show_default=True, help="Tile side in pixels.")
 @click.option("--checkpoint", type=click.Path(file_okay=False),

@@ -11,8 +11,7 @@ from ..api import polygonize
 from ..files import check_writable
 from ..mesh.export import import_trimesh
 from ..mesh.web import save_page
-from . import compile_notice
-from .render_cmd import _floats
+from . import compile_notice, floats
 from .scenes import VIEWS, resolve_scene
 
 
@@ -26,7 +25,7 @@ from .scenes import VIEWS, resolve_scene
               show_default=True,
               help="Mesh cells across the scene (128: about 4 MB for the Murex; the page "
                    "grows with the square of it).")
-@click.option("--up", callback=_floats(3),
+@click.option("--up", callback=floats(3),
               help="Direction shown up, x,y,z (default: a built-in model's own, else +y).")
 def view(scene: str, output: Path, resolution: int, up) -> None:
     """Write SCENE as a self-contained 3D page: drag to turn, wheel to zoom, right-drag to pan."""

@@ -112,21 +112,22 @@ class Mesh:
 
     def component_count(self) -> int:
         """Number of connected pieces (faces sharing a vertex are connected)."""
-        return len(self.piece_volumes())
+        return 0 if len(self.faces) == 0 else int(self._pieces().max()) + 1
 
     def _pieces(self) -> np.ndarray:
         """Each face's piece, numbered from 0."""
         roots = _union_faces(np.ascontiguousarray(self.faces, dtype=np.int64), len(self.vertices))
         return np.unique(roots[self.faces[:, 0]], return_inverse=True)[1].reshape(-1)
 
-    def piece_volumes(self) -> np.ndarray:
+    def piece_volumes(self, pieces: np.ndarray | None = None) -> np.ndarray:
         """The signed volume each connected piece encloses (divergence theorem; negative for a
-        closed piece wound inward, such as a bubble inside the solid)."""
+        closed piece wound inward, such as a bubble inside the solid); ``pieces``: each face's
+        piece, if already known."""
         if len(self.faces) == 0:
             return np.zeros(0)
         v = self.vertices[self.faces]
         tet = np.einsum("ij,ij->i", v[:, 0], np.cross(v[:, 1], v[:, 2])) / 6.0
-        return np.bincount(self._pieces(), weights=tet)
+        return np.bincount(self._pieces() if pieces is None else pieces, weights=tet)
 
     def without_small_pieces(self, min_volume: float) -> tuple[Mesh, int]:
         """The mesh without the pieces enclosing less than ``min_volume`` (in absolute value:
@@ -134,8 +135,9 @@ class Mesh:
         min_volume = Number(lo=0.0).check("min_volume", min_volume)
         if len(self.faces) == 0:
             return self, 0
-        small = np.abs(self.piece_volumes()) < min_volume
-        keep = ~small[self._pieces()]
+        pieces = self._pieces()
+        small = np.abs(self.piece_volumes(pieces)) < min_volume
+        keep = ~small[pieces]
         used = np.unique(self.faces[keep])
         index = np.full(len(self.vertices), -1, dtype=np.int64)
         index[used] = np.arange(len(used))

@@ -23,7 +23,7 @@ cells; only time steps loop.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -52,20 +52,21 @@ class ActivatorInhibitor:
     fluctuation: float = 0.05
 
     def __post_init__(self) -> None:
-        for f in fields(self):
-            if f.name in ("d_a", "d_b"):
-                kind = Number(lo=0.0, hi=MAX_DIFFUSION)
-            elif f.name in ("r_a", "r_b"):
-                kind = Number(lo=0.0, hi=1.0, lo_open=True)
-            else:
-                kind = Number(lo=0.0, hi=1.0)
-            object.__setattr__(self, f.name, kind.check(f.name, getattr(self, f.name)))
+        for name, kind in _KINDS.items():
+            object.__setattr__(self, name, kind.check(name, getattr(self, name)))
 
     def steady_state(self) -> tuple[float, float]:
         """The uniform steady state (a*, b*) for s = 1 and no basic production:
         a* = r_b / r_a, b* = a*^2 / r_b."""
         a = self.r_b / self.r_a
         return a, a * a / self.r_b
+
+
+_DIFFUSION, _RATE, _SHARE = (Number(lo=0.0, hi=MAX_DIFFUSION), Number(lo=0.0, hi=1.0, lo_open=True),
+                             Number(lo=0.0, hi=1.0))
+#: The allowed values of each parameter of :class:`ActivatorInhibitor`.
+_KINDS = {"d_a": _DIFFUSION, "d_b": _DIFFUSION, "r_a": _RATE, "r_b": _RATE, "b_a": _SHARE,
+          "b_b": _SHARE, "fluctuation": _SHARE}
 
 
 def _diffuse(x: np.ndarray) -> np.ndarray:
