@@ -281,3 +281,23 @@ def test_an_equal_tree_built_again_reuses_the_compiled_program():
     del a
     gc.collect()
     assert key not in _PROGRAMS  # kept only while a tree holds it
+
+
+def test_a_subtrahend_absent_here_does_not_paint():
+    """Where a blend above 1 meets a subtrahend with no field, the difference is capped at 1 and
+    keeps the blend's colour, in the reference, the full program and specialised cells alike
+    (a regression: the reference painted with the absent subtrahend's colour)."""
+    from blobtree.engine import GRID_MIN_POINTS
+
+    c0 = bt.Cone((0, 0, 0), (0, 0, 1), radius_a=1.0, radius_b=1.0).color((0.9, 0.2, 0.1))
+    c1 = bt.Cone((0, 0, 0), (0, 0, -1), radius_a=1.0, radius_b=1.0).color((0.9, 0.2, 0.1))
+    tree = bt.difference(bt.blend(c0, c1), bt.Segment((0, 0, 0), (0, 0, 1), radius=0.5)
+                         .color((0.0, 0.0, 0.0)))
+    P = sample_points(tree, GRID_MIN_POINTS + 5000, 0)
+    f, _, c = tree.program().evaluate(P)
+    fr, _, cr = tree.reference(P)
+    capped = (fr == 1.0) & (bt.Segment((0, 0, 0), (0, 0, 1), radius=0.5).field(P) == 0.0)
+    assert capped.sum() > 20
+    np.testing.assert_allclose(cr[capped], [[0.9, 0.2, 0.1]] * capped.sum())
+    live = fr > 1e-9
+    np.testing.assert_allclose(c[live], cr[live], rtol=1e-9, atol=1e-9)
