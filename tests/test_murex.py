@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -77,7 +78,7 @@ def test_table_1_matches_the_paper_cell_by_cell():
                 expected[w].append((float(angle), float(cell)))
     assert M.TABLE_1 == expected
     assert [len(M.TABLE_1[w]) for w in range(1, 8)] == [0, 1, 1, 3, 5, 8, 18]
-    assert M.DELTA_MAX == 1.92
+    assert M.DEFAULT.delta_max == 1.92
 
 
 def test_table_2_matches_the_paper_cell_by_cell():
@@ -111,7 +112,7 @@ def test_body_whorl_is_21_controlled_sections_of_6_instances():
     # Eq. 10's neighbours, and the canal sections of the last 1 1/3 whorls with each other
     assert [tuple(p) for p in body.pairs] == ([(j, j + 1) for j in range(20)]
                                               + [(17, 19), (17, 20), (18, 20)])
-    plain = M.body_whorl(choices=M.Choices(canal_fuse=False))
+    plain = M.body_whorl(spec=replace(M.DEFAULT, canal_fuse=False))
     assert [tuple(p) for p in plain.pairs] == [(j, j + 1) for j in range(20)]
     assert count(body, bt.Point) == 126
     # the canal: one bent cone per instance of the last 1 1/3 whorls (4 sections)
@@ -124,7 +125,7 @@ def test_body_whorl_is_one_piece():
     """The canal sections fused leave no closed tunnel (nor its bubbles); without the fusion
     there are bubbles (the test of the test)."""
     assert bt.polygonize(M.body_whorl(), resolution=192).component_count() == 1
-    plain = M.body_whorl(choices=M.Choices(canal_fuse=False))
+    plain = M.body_whorl(spec=replace(M.DEFAULT, canal_fuse=False))
     assert bt.polygonize(plain, resolution=192).component_count() > 1
 
 
@@ -254,12 +255,12 @@ def _spine_axis_world(whorl_index, k, samples=12, choices=M.DEFAULT):
     """Sample points on each varix spine's bent axis (Eqs. 11-13), world coordinates."""
     c = choices
     length = c.spine_length
-    rho = length / math.radians(M.SPINE_BEND)
-    phi = np.linspace(0.0, math.radians(M.SPINE_BEND), samples)
+    rho = length / math.radians(M.DEFAULT.spine_bend)
+    phi = np.linspace(0.0, math.radians(M.DEFAULT.spine_bend), samples)
     arc = np.stack([rho * np.sin(phi), rho * (1 - np.cos(phi)), 0 * phi], axis=1)
     out = []
     for alpha, delta in M.TABLE_1[whorl_index]:
-        p = arc * (delta, delta, M.DELTA_MAX) + (c.spine_offset, 0.0, 0.0)
+        p = arc * (delta, delta, M.DEFAULT.delta_max) + (c.spine_offset, 0.0, 0.0)
         a = math.radians(alpha)
         rot = np.array([[math.cos(a), -math.sin(a), 0], [math.sin(a), math.cos(a), 0], [0, 0, 1]])
         out.append(to_world(p @ rot.T, M.varix_angle(k)))

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import importlib
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -286,6 +287,6 @@ def test_the_opening_leaves_the_previous_whorl_solid():
 
 def test_first_whorl_varices_are_a_flagged_choice():
     assert len(M.varices()) == 21
-    no_first = M.varices(M.Choices(first_whorl_varices=False))
+    no_first = M.varices(replace(M.DEFAULT, first_whorl_varices=False))
     assert len(no_first) == 18
     assert all(sum(isinstance(n, bt.Cone) for n in v.walk()) == 0 for v in M.varices()[:3])

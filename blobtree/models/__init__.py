@@ -1,12 +1,12 @@
-"""Built-in models: the yardstick ``whorl126`` (docs/conventions.md), the paper's Murex cabritii
-shell and the models of the paper's figures."""
+"""Built-in models: the yardstick ``whorl126`` (docs/conventions.md), shells built from specs
+(:func:`shell`, :data:`SHELLS`: the paper's Murex cabritii and other species) and the models of
+the paper's figures."""
 
 from .figures import FIGURES
 from .helico import MUREX_SPIRAL, HelicoSpiral, helico_spiral, place
 from .murex import (
     TABLE_1,
     TABLE_2,
-    Choices,
     body_whorl,
     bumps,
     canal_spines,
@@ -15,18 +15,19 @@ from .murex import (
     inside_whorl,
     murex,
     opening,
+    outer_shell,
     shell,
     varices,
     varix,
     whorl,
 )
 from .pigment import ActivatorInhibitor, pigment_texture
+from .spec import SHELLS, ShellSpec, load_spec
 from .whorl import whorl126
 
 __all__ = [
-    "FIGURES", "MUREX_SPIRAL", "TABLE_1", "TABLE_2", "ActivatorInhibitor", "Choices",
-    "HelicoSpiral", "body_whorl",
-    "bumps", "canal_spines", "generating_surface", "helico_spiral", "inside_wall",
-    "inside_whorl", "murex", "opening", "pigment_texture", "place", "shell", "varices", "varix",
-    "whorl", "whorl126",
+    "FIGURES", "MUREX_SPIRAL", "SHELLS", "TABLE_1", "TABLE_2", "ActivatorInhibitor",
+    "HelicoSpiral", "ShellSpec", "body_whorl", "bumps", "canal_spines", "generating_surface",
+    "helico_spiral", "inside_wall", "inside_whorl", "load_spec", "murex", "opening",
+    "outer_shell", "pigment_texture", "place", "shell", "varices", "varix", "whorl", "whorl126",
 ]
