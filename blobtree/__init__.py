@@ -6,7 +6,7 @@ Layers, each importing only those before it (docs/architecture.md): the model (`
 tracer (``mesh``, ``render``), then scale-out (``distributed``), this API and the command line.
 """
 
-from . import engine, models
+from . import engine, models, textures
 from .api import polygonize, preview, render
 from .engine import Program, compile_tree
 from .io import load, save
@@ -20,5 +20,5 @@ __version__ = "0.2.0"
 __all__ = [
     *_node_names, "Camera", "Light", "Mesh", "Program", "RenderSettings", "compile_tree",
     "engine", "load", "models", "polygonize", "preview", "render", "render_tile", "save",
-    "save_image",
+    "save_image", "textures",
 ]

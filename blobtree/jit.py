@@ -28,7 +28,7 @@ from numba.core.caching import FunctionCache
 
 _PACKAGE = Path(__file__).resolve().parent
 #: Parts of the package whose code numba never compiles (they cannot change a kernel).
-_NOT_COMPILED = {"cli", "models"}
+_NOT_COMPILED = {"cli", "models", "textures.py"}
 
 
 @functools.cache
