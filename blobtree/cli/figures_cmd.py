@@ -7,14 +7,15 @@ from pathlib import Path
 
 import click
 
-from ..models.figures import FIGURES, TEXTURE_FIGURES
+from ..models.figures import BEYOND, FIGURES, TEXTURE_FIGURES, TextureFigure
 from ..render import LOOKS, render, save_image
 from ..render.camera import framed_camera
 from . import compile_notice
 
-ALL = sorted([*FIGURES, *TEXTURE_FIGURES], key=int)
+#: The paper's figures by number, then those beyond the paper by name.
+ALL = [*sorted([*FIGURES, *TEXTURE_FIGURES], key=int), *BEYOND]
 #: Figures whose models draw random numbers (bumps, canal spine bends, textures).
-SEEDED = {"8", "9", "11", "14"}
+SEEDED = {"8", "9", "11", "14", *BEYOND}
 
 
 @click.command()
@@ -33,15 +34,16 @@ SEEDED = {"8", "9", "11", "14"}
 @click.option("--seed", default=0, show_default=True, help="Seed of the shell's randomness.")
 def figures(out_dir: Path, height: int, samples: int, shadows: bool, look: str,
             only: tuple[str, ...], seed: int) -> None:
-    """Render the paper's figures (3-11 and 14 ray traced; 12, the textures, drawn)."""
+    """Render the paper's figures (3-11 and 14 ray traced; 12, the textures, drawn) and those
+    beyond it (species, grown spines, pigment patterns)."""
     out_dir.mkdir(parents=True, exist_ok=True)
     for key in only or ALL:
         start = time.perf_counter()
         path = out_dir / f"figure-{key}.png"
-        if key in TEXTURE_FIGURES:
-            save_image(TEXTURE_FIGURES[key].draw(), path)
+        fig = {**FIGURES, **TEXTURE_FIGURES, **BEYOND}[key]
+        if isinstance(fig, TextureFigure):
+            save_image(fig.draw(seed) if key in SEEDED else fig.draw(), path)
         else:
-            fig = FIGURES[key]
             tree = fig.build(seed) if key in SEEDED else fig.build()
             aspect = fig.aspect(tree)
             width = max(16, round(height * aspect))

@@ -13,7 +13,7 @@ from ..files import check_writable
 from ..mesh.export import FORMATS, import_trimesh
 from . import compile_notice
 from .cluster import cluster, cluster_options
-from .scenes import VIEWS, resolve_scene
+from .scenes import resolve_scene, scene_view
 
 #: Millimetres per unit of length accepted by --height.
 UNITS = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4}
@@ -79,8 +79,8 @@ def mesh(scene: str, output: Path, resolution: int, height: float | None,
         result = polygonize(tree, resolution=resolution, progress=True, scheduler=client)
     notes = []
     if height is not None and len(result.faces):
-        fig = VIEWS.get(scene)
-        up = np.array((0.0, 1.0, 0.0) if fig is None else fig.up)
+        seen = scene_view(scene, tree)
+        up = np.array((0.0, 1.0, 0.0) if seen is None else seen[0])
         along = result.vertices @ (up / np.linalg.norm(up))
         result = result.scaled(height / float(along.max() - along.min()))
         notes.append(f"{height:g} mm tall")

@@ -72,7 +72,7 @@ def render(scene, output, size, samples, eye, target, up, fov, no_shadows, look,
         prog = tree.program()
         camera = None
         if eye is None and target is None and fov is None:  # a built-in model's own view
-            camera = scene_camera(scene, prog, width, height)
+            camera = scene_camera(scene, tree, prog, width, height)
         else:
             if eye is None or target is None or fov is None:
                 framed = default_camera(prog, width, height)

@@ -1,8 +1,9 @@
-"""SCENE arguments: a JSON scene file or the name of a built-in model."""
+"""SCENE arguments: a JSON scene file, a TOML shell spec or the name of a built-in model."""
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 
 import click
@@ -16,6 +17,7 @@ from ..render.camera import Camera, framed_camera
 BUILTIN: dict[str, Callable[[], Node]] = {
     "whorl126": models.whorl126,
     "murex": models.murex,
+    **{name: partial(models.shell, name) for name in models.SHELLS if name != "murex"},
     **{f"figure{key}": fig.build for key, fig in models.FIGURES.items()},
 }
 
@@ -24,12 +26,23 @@ BUILTIN: dict[str, Callable[[], Node]] = {
 VIEWS = {"murex": models.FIGURES["14"], **{f"figure{k}": f for k, f in models.FIGURES.items()}}
 
 
-def scene_camera(name: str, prog, width: int, height: int) -> Camera | None:
-    """The camera a built-in model is best seen from (its figure's view, framed), or None."""
+def scene_view(name: str, tree: Node) -> tuple[tuple, tuple, float] | None:
+    """(up, view, fov) a scene is best seen from: its figure's, or the view the tree carries
+    (``Node.shown``, as shells do), or None."""
     fig = VIEWS.get(name)
-    if fig is None:
+    if fig is not None:
+        return fig.up, fig.view, fig.fov
+    up, view = tree.display
+    return None if view is None else (up, view, 30.0)
+
+
+def scene_camera(name: str, tree: Node, prog, width: int, height: int) -> Camera | None:
+    """The camera a scene is best seen from (see :func:`scene_view`), framed, or None."""
+    seen = scene_view(name, tree)
+    if seen is None:
         return None
-    return framed_camera(prog, width, height, view=fig.view, up=fig.up, fov=fig.fov)
+    up, view, fov = seen
+    return framed_camera(prog, width, height, view=view, up=up, fov=fov)
 
 
 def resolve_scene(name: str) -> Node:
@@ -37,6 +50,13 @@ def resolve_scene(name: str) -> Node:
     if name in BUILTIN:
         return BUILTIN[name]()
     path = Path(name)
+    if path.suffix.lower() == ".toml":
+        if not path.is_file():
+            raise click.BadParameter(f"no such shell spec: {name}", param_hint="SCENE")
+        try:
+            return models.shell(models.load_spec(path))
+        except ValueError as e:
+            raise click.BadParameter(str(e), param_hint="SCENE") from None
     if path.suffix.lower() == ".json" or path.exists():
         if not path.is_file():
             raise click.BadParameter(f"no such scene file: {name}", param_hint="SCENE")
@@ -45,5 +65,5 @@ def resolve_scene(name: str) -> Node:
         except SceneError as e:
             raise click.BadParameter(f"{name}: {e}", param_hint="SCENE") from None
     raise click.BadParameter(
-        f"{name!r} is neither a scene file nor a built-in model "
+        f"{name!r} is neither a scene file (.json), a shell spec (.toml) nor a built-in model "
         f"({', '.join(sorted(BUILTIN))})", param_hint="SCENE")

@@ -12,7 +12,7 @@ from ..files import check_writable
 from ..mesh.export import import_trimesh
 from ..mesh.web import save_page
 from . import compile_notice, floats
-from .scenes import VIEWS, resolve_scene
+from .scenes import resolve_scene, scene_view
 
 
 @click.command()
@@ -36,8 +36,8 @@ def view(scene: str, output: Path, resolution: int, up) -> None:
     import_trimesh()  # before the work (Ctrl-C-safe, see import_trimesh)
     tree = resolve_scene(scene)
     start = time.perf_counter()
-    fig = VIEWS.get(scene)
-    options = {} if fig is None else {"up": fig.up, "view": fig.view}
+    seen = scene_view(scene, tree)
+    options = {} if seen is None else {"up": seen[0], "view": seen[1]}
     if up is not None:
         options["up"] = up
     with compile_notice():

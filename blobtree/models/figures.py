@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -28,10 +28,12 @@ from .murex import (
     murex,
     opening,
     sections,
+    shell,
     varix,
     whorl,
 )
 from .shell_textures import SHELL_TEXTURES
+from .spec import SHELLS
 
 #: Local parts (generating surfaces, varices) are seen face on, the apex side up.
 LOCAL_VIEW = (0.0, 0.0, -1.0)
@@ -274,4 +276,55 @@ FIGURES: dict[str, Figure] = {
         "final shape of the opening after adding in B_inside_wall as in Equation 15.",
     ),
     "14": Figure(figure_14, "Model of Murex cabritii."),
+}
+
+
+# ---------------------------------------------------------------------------------------------
+# Beyond the paper
+# ---------------------------------------------------------------------------------------------
+
+
+def _facing(tree: Node, view: Sequence[float], to: Sequence[float]) -> Node:
+    """The tree turned about y so that what ``view`` saw, ``to`` sees (both horizontal)."""
+    a = math.degrees(math.atan2(-view[2], view[0]))
+    b = math.degrees(math.atan2(-to[2], to[0]))
+    return tree.rotate("y", b - a)
+
+
+def species_figure(seed: int = 0) -> Node:
+    """The shipped species (``SHELLS``) side by side, each built from its spec, turned to show
+    its aperture and scaled to the same height."""
+    shells = []
+    for spec in SHELLS.values():
+        tree = _facing(shell(spec, seed), spec.view, APERTURE_VIEW)
+        lo, hi = tree.bounds()
+        shells.append(tree.scale(10.0 / float(hi[1] - lo[1])))
+    return _row(shells, APERTURE_VIEW, SHELL_UP, gap=1.0)
+
+
+def grown_spines_figure(seed: int = 0) -> Node:
+    """The Murex with its varix spines as Table 1 places them (left) and grown by an
+    activator-inhibitor along the lip (right, ``varices.placement = "grown"``): the number of
+    spines rises whorl by whorl (0, 1, 2, 4, 7, 9, 12) instead of jumping (0, 1, 1, 3, 5, 8,
+    18).  Plain colours, so the spines read."""
+    grown = replace(DEFAULT, varix_placement="grown")
+    return _row([shell(DEFAULT, seed, textured=False), shell(grown, seed, textured=False)],
+                APERTURE_VIEW, SHELL_UP)
+
+
+def patterns_figure(seed: int = 0) -> np.ndarray:
+    """The pigment patterns of ``bt.textures.PATTERNS`` side by side, named."""
+    from ..textures import pattern_sheet  # noqa: PLC0415  (images only for this figure)
+
+    return pattern_sheet(seed=seed)
+
+
+#: Figures beyond the paper (its Section 4's open problems, solved): models and images.
+BEYOND: dict[str, Figure | TextureFigure] = {
+    "species": Figure(species_figure, "Shells from data: Murex cabritii, Chicoreus ramosus and "
+                                      "Oliva porphyria, each built from its spec."),
+    "grown": Figure(grown_spines_figure, "Spines placed by Table 1 (left) and grown by an "
+                                         "activator-inhibitor along the lip (right)."),
+    "patterns": TextureFigure(patterns_figure, "Pigment grown by Meinhardt's models: stripes, "
+                                               "waves, the triangles of Oliva porphyria, bands."),
 }

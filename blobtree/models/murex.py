@@ -83,11 +83,12 @@ def body_mapping(spec: ShellSpec = DEFAULT, period: float | None = None) -> Heli
     it with a short walk to S (steps of 0.1 D: the walk runs nearly along the tube's normal, so
     the (u, v) found hardly depend on the step; a larger S or finer steps cost more for no
     visible change).  theta_max: the model's extent along the spiral, which limits the whorls S
-    looks through."""
+    looks through.  An oval generating point (``point_scale``) keeps the round tube: the short
+    walks from its flanks still find (u, v) that vary smoothly over the surface."""
     extent = spec.instances * spec.theta_s
     return HelicoSurface(spiral=spec.spiral, u_period=period or spec.section_deg,
-                         u_start=-spec.theta_s / 2, radius_factor=1.25 * max(spec.point_scale),
-                         step=0.1, theta_max=extent)
+                         u_start=-spec.theta_s / 2, radius_factor=1.25, step=0.1,
+                         theta_max=extent)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -564,12 +565,23 @@ def inside_wall(spec: ShellSpec = DEFAULT) -> Node:
 # ---------------------------------------------------------------------------------------------
 
 
-def _pattern_texture(name: str, seed: int, spec: ShellSpec) -> np.ndarray:
+def _pattern_texture(name: str, seed: int, spec: ShellSpec, cells: int = 512) -> np.ndarray:
     """A pigment pattern grown along the whole spiral (bt.textures): its rows are time, so they
-    become the texture's columns (u, along the spiral); its columns the lip (v)."""
+    become the texture's columns (u, along the spiral), its ``cells`` columns the lip (v).  As
+    many rows per degree as keep a cell as long along the growth as across the lip (a wave
+    moving a cell per row draws 45 deg lines on the shell, as on a real one): a degree of growth
+    is R pi / 180 long, the lip about 2 pi 1.08 D sqrt((sx^2 + sy^2) / 2) (the tube of visible
+    radius 1.08 D, scaled by point_scale); fewer cells when the rows would pass 4096.  The lip's
+    ends meet, as v wraps around the tube."""
     from .. import textures  # noqa: PLC0415  (textures is optional to the paper's shell)
-    rows = max(64, min(2048, int(spec.instances * spec.theta_s / 2.0)))
-    image = textures.meinhardt(name, 128, rows, seed=seed)
+    sx, sy, _ = spec.point_scale
+    lip = 2.0 * math.pi * 1.08 * spec.spiral.d_over_r * math.sqrt((sx * sx + sy * sy) / 2.0)
+    per_cell = spec.instances * spec.theta_s * math.pi / 180.0 / lip  # rows per cell
+    cells = max(16, min(cells, int(4096 / per_cell)))  # images have at most 4096 columns
+    rows = max(64, min(4096, round(cells * per_cell)))
+    image = textures.meinhardt(name, cells, rows, seed=seed)
+    for axis in (0, 1):  # lines a cell thin would alias away: widen the (darker) pigment to 3
+        image = np.minimum.reduce([np.roll(image, k, axis=axis) for k in (-1, 0, 1)])
     return np.round(np.clip(image.transpose(1, 0, 2), 0.0, 1.0) * 255.0).astype(np.uint8)
 
 

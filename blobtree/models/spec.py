@@ -336,9 +336,8 @@ def spec_from_data(data: Mapping, base: ShellSpec | None = None,
                 raise ValueError(f"{dotted_key} is not a spec key; allowed: "
                                  f"{allowed or sorted({k.split('.')[0] for k in FIELDS})}")
             values[f.name] = v
-    if spiral or base is None:
-        start = {} if base is None else {k: getattr(base.spiral, k) for k in SPIRAL_KEYS}
-        values["spiral"] = _spiral({**start, **spiral})
+    if spiral or base is None:  # a spiral table is whole: it replaces the base's
+        values["spiral"] = _spiral(spiral)
     if base is not None:
         return replace(base, **values)
     missing = [dotted(f.name) for f in fields(ShellSpec) if f.name not in values]

@@ -1,0 +1,91 @@
+"""Gradual features: spines placed by an activator-inhibitor along the growing lip.
+
+The paper's Table 1 lists each whorl's spines by hand, and "the number and placement of spines
+suddenly change from one whorl to another" (its Section 4); its authors name reaction-diffusion
+as the way forward.  Here the lip (the generating curve's angles alpha, one cell per
+``CELL_DEG``) carries Meinhardt's activator-inhibitor system (ABoSS Eq. 2.1, the model of
+``bt.textures``), run through the shell's growth.  A cell can make a spine only while it is
+competent: the competent arc grows from the first spined whorl's angles of the spec's Table 1 to
+the last whorl's (linearly in time), as the Murex's spiny shoulder widens down its whorls;
+outside it the source density is 0, so no activator forms.  A stable Turing pattern keeps its
+peaks where they are, so as the arc widens, new peaks are inserted at its edge, one or two at a
+time: the spines' number and spacing change gradually.  Each whorl's varices take the activator
+peaks at the whorl's end: alpha at the peak, delta in proportion to its height, the middle of
+Table 1's range of deltas for the mean height (clipped to that range).  Deterministic: the
+source fluctuations come from a fixed seed.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+
+from ..textures import ActivatorInhibitor
+from .spec import ShellSpec
+
+#: Degrees of lip per cell, and the lip's angles (the generating curve's outer half).
+CELL_DEG = 1.0
+LIP = (-90.0, 90.0)
+#: Time steps per whorl (the Turing pattern settles within a few hundred).
+STEPS_PER_WHORL = 600
+#: Peaks below this multiple of the activator's uniform steady state make no spine.
+PEAK_LEVEL = 1.5
+#: The lip's model: a Turing pattern of wavelength about 15 cells (ABoSS Eq. 2.1).
+#: A small basic production b_a lets newly competent cells (a = 0) start a peak.
+MODEL = ActivatorInhibitor(d_a=0.005, d_b=0.45, r_a=0.03, r_b=0.04, b_a=0.002, fluctuation=0.05)
+
+
+def _arcs(spec: ShellSpec) -> list[tuple[float, float] | None]:
+    """Each whorl's competent arc (lo, hi) in degrees, or None before the first spines: from
+    the first spined whorl's angles to the last whorl's, linearly."""
+    rows = spec.table_1
+    spined = [w for w, row in enumerate(rows) if row]
+    if not spined:
+        return [None] * len(rows)
+    first, last = spined[0], len(rows) - 1
+    lo0, hi0 = min(a for a, _ in rows[first]), max(a for a, _ in rows[first])
+    lo1, hi1 = (min(a for a, _ in rows[spined[-1]]), max(a for a, _ in rows[spined[-1]]))
+    out: list[tuple[float, float] | None] = []
+    for w in range(len(rows)):
+        if w < first:
+            out.append(None)
+            continue
+        t = 1.0 if last == first else (w - first) / (last - first)
+        out.append((lo0 + t * (lo1 - lo0) - CELL_DEG, hi0 + t * (hi1 - hi0) + CELL_DEG))
+    return out
+
+
+@functools.lru_cache(maxsize=8)
+def grown_table(spec: ShellSpec) -> tuple[tuple[tuple[float, float], ...], ...]:
+    """Table 1 grown, for the spec's whorls: per whorl, (alpha_i, delta_i) of each spine."""
+    angles = np.arange(LIP[0], LIP[1] + CELL_DEG / 2, CELL_DEG)
+    state = MODEL.start(len(angles), np.random.default_rng(0))
+    sources = state[2].copy()
+    a_star = MODEL.steady_state()[0]
+    arcs = _arcs(spec)
+    peaks: list[list[tuple[float, float]]] = []
+    for w, arc in enumerate(arcs):
+        steps = STEPS_PER_WHORL
+        for k in range(steps):
+            if arc is None:
+                state[2] = 0.0 * sources
+                continue
+            prev = arcs[w - 1] if w > 0 and arcs[w - 1] is not None else arc
+            f = (k + 1) / steps  # the arc widens through the whorl
+            lo = prev[0] + f * (arc[0] - prev[0])
+            hi = prev[1] + f * (arc[1] - prev[1])
+            state[2] = np.where((angles >= lo) & (angles <= hi), sources, 0.0)
+            MODEL.step(state)
+        a = state[0]
+        top = (a[1:-1] > a[:-2]) & (a[1:-1] >= a[2:]) & (a[1:-1] > PEAK_LEVEL * a_star)
+        idx = np.flatnonzero(top) + 1
+        peaks.append([(float(angles[i]), float(a[i])) for i in idx] if arc is not None else [])
+    heights = [h for row in peaks for _, h in row]
+    deltas = [d for row in spec.table_1 for _, d in row] or [1.0]
+    mean_h = float(np.mean(heights)) if heights else 1.0
+    lo_d, hi_d = min(deltas), max(deltas)
+    mean_d = 0.5 * (lo_d + hi_d)
+    return tuple(
+        tuple((alpha, round(float(np.clip(mean_d * h / mean_h, lo_d, hi_d)), 3))
+              for alpha, h in row) for row in peaks)
