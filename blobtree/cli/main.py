@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 from collections import Counter
+from pathlib import Path
 
 import click
 import numpy as np
 
-from .. import __version__
+from .. import __version__, models
+from ..files import atomic_path, check_writable
 from ..io import SceneError
 from ..nodes import Node
 from . import start_command
@@ -68,9 +70,27 @@ def info(scene: str) -> None:
 
 @main.command("models")
 def list_models() -> None:
-    """List the built-in model names usable as SCENE."""
+    """List the built-in model names usable as SCENE (shells: their species)."""
     for name in sorted(BUILTIN):
-        click.echo(name)
+        species = models.SHELLS.get(name)
+        click.echo(name if species is None else f"{name:<12}{species.name} (shell spec)")
+
+
+@main.command("spec")
+@click.argument("name", type=click.Choice(sorted(models.SHELLS)))
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path),
+              help="Write the spec here (default: print it).")
+def spec(name: str, output: Path | None) -> None:
+    """Print a shipped shell's whole spec as TOML, every key explained: a file to edit into a
+    new species (then `blobtree render my_shell.toml`)."""
+    text = models.spec.to_toml(models.SHELLS[name])
+    if output is None:
+        click.echo(text, nl=False)
+        return
+    check_writable(output, "--output")
+    with atomic_path(output) as tmp:
+        tmp.write_text(text)
+    click.echo(f"wrote {output}")
 
 
 main.add_command(figures)

@@ -29,6 +29,7 @@ from typing import Any
 
 from ..checks import Choice, Integer, Kind, Number, is_number, positive, short_repr
 from ..spiral import HelicoSpiral
+from ..textures import PATTERNS
 
 #: The version of the spec format this code reads.
 VERSION = 1
@@ -142,7 +143,7 @@ class ShellSpec:
                            "spine of its varices (Eqs. 11-12)")
     varix_placement: str = _spec("varices", "placement", Choice(("table", "grown")),
                                  "'table': spines as listed; 'grown': positions from an "
-                                 "activator-inhibitor along the lip (see shells.grown_table)")
+                                 "activator-inhibitor along the lip (models.growth)")
     first_whorl_varices: bool = _spec("varices", "first_whorl", Flag(),
                                       "whorl 1's varices (tori only when it lists no spines)")
     varices_down_canal: int = _spec("varices", "down_canal", Integer(0, 12),
@@ -205,7 +206,7 @@ class ShellSpec:
                                    "how far past the previous whorl's surface they reach")
     wall_scale: float = _spec("opening", "wall_scale", Number(0.01, 2.0),
                               "inside wall (Eq. 15) point radius / point_radius")
-    texture: str = _spec("look", "texture", Text(),
+    texture: str = _spec("look", "texture", Choice(("paper", "plain", *PATTERNS)),
                          "'paper': Figure 12's textures; 'plain': colours; or a pigment pattern "
                          "of bt.textures.PATTERNS grown along the body")
     colours: tuple = _spec("look", "colours", Numbers(4, _RGB),
@@ -336,14 +337,16 @@ def spec_from_data(data: Mapping, base: ShellSpec | None = None,
                 raise ValueError(f"{dotted_key} is not a spec key; allowed: "
                                  f"{allowed or sorted({k.split('.')[0] for k in FIELDS})}")
             values[f.name] = v
-    if spiral or base is None:  # a spiral table is whole: it replaces the base's
+    if base is None:
+        missing = [dotted(f.name) for f in fields(ShellSpec)
+                   if f.name not in values and (f.name != "spiral" or not spiral)]
+        if missing:
+            raise ValueError(f"spec is missing {missing[:5]}{' ...' if len(missing) > 5 else ''}"
+                             " (or give extends = a shipped spec's name)")
+    if spiral:  # a spiral table is whole: it replaces the base's
         values["spiral"] = _spiral(spiral)
     if base is not None:
         return replace(base, **values)
-    missing = [dotted(f.name) for f in fields(ShellSpec) if f.name not in values]
-    if missing:
-        raise ValueError(f"spec is missing {missing[:5]}{' ...' if len(missing) > 5 else ''} "
-                         "(or give extends = a shipped spec's name)")
     return ShellSpec(**values)
 
 
@@ -404,3 +407,38 @@ def load_spec(spec: ShellSpec | Mapping | str | Path) -> ShellSpec:
             raise ValueError(e if str(e).startswith(str(spec)) else f"{spec}: {e}") from None
     raise ValueError(f"spec must be a shipped shell {sorted(SHELLS)}, a path to a .toml spec "
                      f"file, its data or a ShellSpec, got {short_repr(spec)}")
+
+
+def _toml_value(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        return repr(value)
+    return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+
+
+def to_toml(spec: ShellSpec) -> str:
+    """The whole spec as TOML, every key with its meaning as a comment: a complete file to
+    start a new species from (``blobtree spec NAME``); :func:`load_spec` reads it back equal."""
+    lines = [f"# Shell spec, version {VERSION} (docs/shells.md).", f"version = {VERSION}",
+             f"name = {_toml_value(spec.name)}", "", "[spiral]  # " + dict(
+                 (f.name, f.metadata["doc"]) for f in fields(ShellSpec))["spiral"]]
+    for key in SPIRAL_KEYS:
+        value = getattr(spec.spiral, key)
+        if value is not None:
+            lines.append(f"{key} = {_toml_value(value)}")
+    section = ""
+    for key, f in FIELDS.items():
+        if "." not in key:
+            continue
+        table, sub = key.split(".", 1)
+        if table != section:
+            lines += ["", f"[{table}]"]
+            section = table
+        lines.append(f"# {f.metadata['doc']}")
+        lines.append(f"{sub} = {_toml_value(getattr(spec, f.name))}")
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,204 @@
+"""Shells from data (docs/shells.md): the spec format, the shipped species, grown spines and
+pigment patterns on the shell."""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import replace
+
+import numpy as np
+import pytest
+import trimesh
+from click.testing import CliRunner
+
+import blobtree as bt
+from blobtree.cli.main import main
+from blobtree.models import SHELLS, load_spec, shell
+from blobtree.models.growth import grown_table
+from blobtree.models.spec import FIELDS, read_toml, spec_from_data, to_toml
+from blobtree.render.camera import framed_camera
+
+MUREX = SHELLS["murex"]
+
+
+def _write(tmp_path, text: str):
+    path = tmp_path / "shell.toml"
+    path.write_text(text)
+    return path
+
+
+# --- the format ----------------------------------------------------------------------------------
+
+def test_every_shipped_spec_round_trips_through_its_full_toml():
+    """to_toml writes every key; reading it back (no extends) gives the same spec."""
+    for name, spec in SHELLS.items():
+        data = tomllib.loads(to_toml(spec))
+        assert "extends" not in data
+        assert spec_from_data(data) == spec, name
+
+
+def test_murex_from_a_full_spec_file_is_the_murex(tmp_path):
+    """The Murex written out whole, read back from a file, builds the very tree murex() builds
+    (structural key), so their fields are equal everywhere; spot-checked on points."""
+    path = _write(tmp_path, to_toml(MUREX))
+    built = shell(path, seed=0)
+    reference = bt.models.murex(seed=0)
+    assert built.key == reference.key
+    lo, hi = reference.bounds()
+    pts = np.random.default_rng(1).uniform(lo, hi, (400, 3))
+    assert np.array_equal(built.program().field(pts), reference.program().field(pts))
+
+
+def test_the_murex_spec_holds_the_paper_numbers():
+    """Section 3 and Eqs. 7, 9, 14 read from species/murex.toml (Tables 1-2: test_murex)."""
+    s = MUREX
+    assert (s.spiral.beta, s.spiral.rho, s.spiral.r0, s.spiral.d_ratio) == (22.5, 1.3, 0.2, 0.341)
+    assert (s.whorls, s.whorl_deg, s.sections_per_whorl, s.instances_per_section) == \
+        (7, 348.0, 3, 6)
+    assert s.theta_s == pytest.approx(116 / 6) and s.instances == 126 and s.sections == 21
+    assert s.previous_whorl == (94, 108) and s.bump_blend_n == 400 and s.spine_bend == 30
+    assert s.canal_sections == 4 and s.bump_sets == 5
+
+
+@pytest.mark.parametrize("text, words", [
+    ("name = 'x'\n", "version must be 1"),
+    ("version = 2\n", "version must be 1"),
+    ("version = 1\nextends = 'murex'\n[canal]\ntilt = 100\n", "canal.tilt must be"),
+    ("version = 1\nextends = 'murex'\n[canal]\ntwist = 1\n", "canal.twist is not a spec key"),
+    ("version = 1\nextends = 'murex'\n[hull]\nx = 1\n", "hull.x is not a spec key"),
+    ("version = 1\nextends = 'murex'\ncolour = 1\n", "colour is not a spec key"),
+    ("version = 1\nextends = 'murex'\n[varices]\ntable = [[]]\n", "one row per whorl (7)"),
+    ("version = 1\nextends = 'murex'\n[varices]\ntable = [[], [[50]], [], [], [], [], []]\n",
+     "varices.table[1][0] must be a list of 2"),
+    ("version = 1\nextends = 'murex'\n[bumps]\nsets = 1.5\n", "bumps.sets must be an integer"),
+    ("version = 1\nextends = 'murex'\n[canal]\nfuse = 1\n", "canal.fuse must be true or false"),
+    ("version = 1\nextends = 'murex'\n[spiral]\nbeta = 30\n", "spiral.rho is missing"),
+    ("version = 1\nextends = 'murex'\n[spiral]\nbeta = 95\nrho = 2\nr0 = 1\n", "spiral.beta"),
+    ("version = 1\nextends = 'nautilus'\n", "extends must be one of"),
+    ("version = 1\nname = 'bare'\n", "spec is missing"),
+    ("version = 1\nextends = 'murex'\n[look]\ntexture = 'plaid'\n", "texture"),
+    ("version = 1\n[canal\n", "not valid TOML"),
+])
+def test_bad_specs_are_refused_naming_the_key(tmp_path, text, words):
+    path = _write(tmp_path, text)
+    with pytest.raises(ValueError, match=None) as info:
+        shell(path)
+    assert words in str(info.value), str(info.value)
+    assert str(path) in str(info.value)  # which file
+
+
+def test_a_missing_spec_file_is_named(tmp_path):
+    with pytest.raises(ValueError, match="cannot read"):
+        load_spec(tmp_path / "nope.toml")
+    with pytest.raises(ValueError, match="spec must be a shipped shell"):
+        load_spec(42)
+
+
+def test_a_spec_extending_another_changes_only_what_it_lists(tmp_path):
+    path = _write(tmp_path, "version = 1\nextends = 'murex'\nname = 'Short canal'\n"
+                            "[canal]\nstraight = 1.0\n")
+    spec = load_spec(path)
+    assert spec == replace(MUREX, name="Short canal", canal_straight=1.0)
+
+
+def test_every_spec_key_is_documented():
+    doc = open("docs/shells.md").read()
+    for key in [*FIELDS, "spiral.beta", "spiral.rho", "spiral.r0", "spiral.d_ratio", "extends"]:
+        assert f"`{key}`" in doc, key
+
+
+# --- the species ---------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("name", sorted(SHELLS))
+def test_every_shipped_species_renders_and_meshes_watertight(name):
+    """Each spec builds, ray traces with the shell visible in the middle of its own view, and
+    meshes to a closed surface."""
+    tree = shell(name, seed=0)
+    spec = SHELLS[name]
+    assert tree.display == (spec.up, spec.view)
+    cam = framed_camera(tree.program(), 24, 24, view=spec.view, up=spec.up)
+    img = bt.render(tree, 24, 24, camera=cam, shadows=False)
+    background = bt.render(bt.Point(radius=1e-3, center=(1e5, 0, 0)), 24, 24, camera=cam,
+                           shadows=False)
+    assert np.abs(img[12, 12].astype(int) - background[12, 12].astype(int)).sum() > 30
+    mesh = bt.polygonize(tree, resolution=40)
+    tm = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
+    assert len(mesh.faces) > 1000 and tm.is_watertight
+
+
+def test_the_species_differ_from_the_murex():
+    oliva, chicoreus = SHELLS["oliva"], SHELLS["chicoreus"]
+    assert oliva.canal_sections == 0 and not any(oliva.table_1) and oliva.bump_sets == 0
+    assert chicoreus.spine_branches == 2 and chicoreus.varices_down_canal == 3
+    assert len({shell(n).key for n in SHELLS}) == len(SHELLS)
+
+
+def test_varices_run_down_the_canal_when_asked():
+    """down_canal adds, per varix of the canal sections, that many spines (the paper's stop
+    short of the canal): more cones, and field past the canal's surface below each varix."""
+    down = replace(MUREX, varices_down_canal=3)
+    count = lambda t: sum(isinstance(n, bt.Cone) for n in t.walk())  # noqa: E731
+    plain, more = bt.models.varices(MUREX), bt.models.varices(down)
+    canal_varices = sum(1 for k in range(1, 22) if k > 21 - 4)
+    assert len(more) == len(plain) + canal_varices
+    assert sum(count(v) for v in more) == sum(count(v) for v in plain) + 3 * canal_varices
+
+
+# --- grown spines and patterns -------------------------------------------------------------------
+
+def test_grown_spines_change_gradually():
+    """The activator-inhibitor's spines: their number never falls from whorl to whorl and rises
+    by at most 3 (Table 1 jumps by 10, from 8 to 18); a spine once placed stays (within 2
+    degrees) on the next whorl; every spine lies on the lip and within Table 1's sizes."""
+    spec = replace(MUREX, varix_placement="grown")
+    table = grown_table(spec)
+    counts = [len(row) for row in table]
+    steps = np.diff(counts)
+    assert counts[0] == 0 and counts[-1] >= 8 and np.all(steps >= 0) and steps.max() <= 3
+    paper_steps = np.diff([len(row) for row in MUREX.table_1])
+    assert paper_steps.max() >= 10
+    for before, after in zip(table[1:-1], table[2:], strict=True):
+        for alpha, _ in before:
+            assert min(abs(alpha - a) for a, _ in after) <= 2.0
+    deltas = [d for row in table for _, d in row]
+    assert min(deltas) >= 0.5 and max(deltas) <= 1.92
+    assert all(-90 <= a <= 90 for row in table for a, _ in row)
+    assert grown_table(replace(spec, name="again")) == table  # deterministic
+
+
+def test_a_pattern_changes_only_the_colours():
+    """murex(pattern=...) grows pigment on the body: the field is the Murex's, the albedo is
+    not, and it differs between patterns."""
+    plain = bt.models.murex(seed=0, textured=False)
+    waves = bt.models.murex(seed=0, pattern="waves")
+    stripes = bt.models.murex(seed=0, pattern="stripes")
+    lo, hi = plain.bounds()
+    pts = np.random.default_rng(2).uniform(lo, hi, (60000, 3))
+    f = plain.program().field(pts)
+    assert np.array_equal(f, waves.program().field(pts))
+    near = pts[(f > 0.45) & (f < 0.55)]
+    assert len(near) > 20
+    a, b = waves.program().albedo(near), stripes.program().albedo(near)
+    assert np.abs(a - b).max() > 0.1
+    with pytest.raises(ValueError, match="texture|name"):
+        bt.models.murex(pattern="plaid").program().albedo(near[:2])
+
+
+# --- the command line ----------------------------------------------------------------------------
+
+def test_cli_lists_the_species_and_prints_a_spec_that_renders(tmp_path):
+    runner = CliRunner()
+    listed = runner.invoke(main, ["models"])
+    assert listed.exit_code == 0
+    for name, spec in SHELLS.items():
+        assert name in listed.output and spec.name in listed.output
+    out = tmp_path / "mine.toml"
+    r = runner.invoke(main, ["spec", "oliva", "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    assert load_spec(out) == SHELLS["oliva"]
+    assert read_toml(out)["name"] == "Oliva porphyria"
+    png = tmp_path / "mine.png"
+    r = runner.invoke(main, ["render", str(out), "-o", str(png), "--size", "16x16",
+                             "--no-shadows"])
+    assert r.exit_code == 0, r.output
+    assert png.stat().st_size > 0
