@@ -118,3 +118,45 @@ def test_bad_heights_are_refused_by_name(tmp_path, height):
     r = CliRunner().invoke(main, ["mesh", str(_scene(tmp_path)), "-o",
                                   str(tmp_path / "x.stl"), "--height", height])
     assert r.exit_code == 2 and "--height" in r.output and "such as 80mm" in r.output
+
+
+# --- thin parts ----------------------------------------------------------------------------------
+
+def test_a_rod_is_measured_as_a_spine_of_its_diameter():
+    """A cylinder skeleton of radius 0.3 with field radius 0.2 has the visible radius
+    0.3 + 0.1 (Wyvill's surface at R / 2): every point of its side is a rod 0.8 across."""
+    from blobtree.mesh.thickness import measure
+    rod = bt.Cylinder((0, 0, 0), (4, 0, 0), cylinder_radius=0.3, radius=0.2)
+    mesh = bt.polygonize(rod, resolution=48)
+    side = mesh.vertices[np.abs(mesh.vertices[:, 0] - 2.0) < 1.0]
+    th = measure(rod.program(), side, step=0.02, depth=3.0)
+    assert th.rods.all()
+    assert np.allclose(th.across, 0.8, atol=0.01)
+    assert th.thinnest(th.sheets) is None
+
+
+def test_a_hollow_ball_is_measured_as_a_wall_of_its_thickness():
+    """Point(4) - Point(3): a spherical wall from radius 1.5 to 2, 0.5 thick everywhere."""
+    from blobtree.mesh.thickness import measure
+    hollow = bt.difference(bt.Point(radius=4.0), bt.Point(radius=3.0))
+    mesh = bt.polygonize(hollow, resolution=48)
+    th = measure(hollow.program(), mesh.vertices, step=0.02, depth=3.0)
+    assert th.sheets.all()
+    assert np.allclose(th.across, 0.5, atol=0.01)
+    t, where = th.thinnest(th.sheets)
+    assert t == pytest.approx(0.5, abs=0.01) and np.linalg.norm(where) > 1.4
+
+
+def test_info_reports_thin_parts_at_a_print_height(tmp_path):
+    """A rod 0.8 across and 4.2 long (flat ends 0.1 past the skeleton, R / 2), printed 48 mm
+    tall along +y: 0.8 * 48 / 4.2 = 9.14 mm across."""
+    rod = bt.Cylinder((0, 0, 0), (0, 4, 0), cylinder_radius=0.3, radius=0.2)
+    path = tmp_path / "rod.json"
+    bt.save(rod, path)
+    r = CliRunner().invoke(main, ["info", str(path), "--height", "48mm", "--resolution", "48"])
+    assert r.exit_code == 0, r.output
+    line = next(x for x in r.output.splitlines() if "thinnest spine" in x)
+    assert float(line.split(":")[1].split("mm")[0]) == pytest.approx(0.8 * 48 / 4.2, rel=0.02)
+    assert "thinnest wall (sheet): none found" in r.output
+    bad = CliRunner().invoke(main, ["info", str(path), "--height", "-3mm"])
+    assert bad.exit_code == 2 and "--height" in bad.output

@@ -202,3 +202,8 @@ def test_cli_lists_the_species_and_prints_a_spec_that_renders(tmp_path):
                              "--no-shadows"])
     assert r.exit_code == 0, r.output
     assert png.stat().st_size > 0
+
+
+def test_the_parts_are_functions_not_modules():
+    """bt.models.whorl is Eq. 9's function (a submodule of that name once shadowed it)."""
+    assert callable(bt.models.whorl) and callable(bt.models.shell) and callable(bt.models.murex)

@@ -78,3 +78,24 @@ def floats(n: int):
         return out
 
     return parse
+
+
+#: Millimetres per unit of length accepted by --height.
+UNITS = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4}
+
+
+def length_mm(ctx, param, value):
+    """A click callback reading a length such as ``80mm`` or ``3in`` into millimetres."""
+    if value is None:
+        return None
+    text = value.strip().lower()
+    unit = next((u for u in sorted(UNITS, key=len, reverse=True) if text.endswith(u)), "mm")
+    number = text[: len(text) - len(unit)] if text.endswith(unit) else text
+    try:
+        mm = float(number) * UNITS[unit]
+    except ValueError:
+        mm = float("nan")
+    if not 0.01 <= mm <= 1e5:
+        raise click.BadParameter(f"expected a length from 0.01 mm to 100 m such as 80mm, 8cm or "
+                                 f"3in, got {value!r}")
+    return mm

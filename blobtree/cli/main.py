@@ -11,12 +11,14 @@ import numpy as np
 from .. import __version__, models
 from ..files import atomic_path, check_writable
 from ..io import SceneError
+from ..mesh import polygonize
+from ..mesh.thickness import measure
 from ..nodes import Node
-from . import start_command
+from . import compile_notice, length_mm, start_command
 from .figures_cmd import figures
 from .mesh_cmd import mesh
 from .render_cmd import render
-from .scenes import BUILTIN, resolve_scene
+from .scenes import BUILTIN, resolve_scene, scene_view
 from .view_cmd import view
 
 #: What a user's mistake raises (bad values, unreadable or unwritable files, scene documents too
@@ -52,7 +54,12 @@ def main() -> None:
 
 @main.command()
 @click.argument("scene")
-def info(scene: str) -> None:
+@click.option("--height", callback=length_mm, default=None,
+              help="Also report the thinnest parts at this print height (e.g. 80mm, 8cm, "
+                   "3in): spine tips and walls, measured on the field.")
+@click.option("--resolution", default=128, show_default=True, type=click.IntRange(16, 1024),
+              help="With --height: the mesh whose vertices are measured.")
+def info(scene: str, height: float | None, resolution: int) -> None:
     """Node counts by type (each shared subtree once), bounds and program length of SCENE."""
     tree: Node = resolve_scene(scene)
     counts = Counter(n.TYPE for n in tree.unique())
@@ -66,6 +73,44 @@ def info(scene: str) -> None:
     click.echo(f"bounds: {lo} .. {hi}")
     click.echo(f"program: {len(prog)} instructions, stack depth {prog.depth}, "
                f"Lipschitz bound {prog.lipschitz_global:.4g}")
+    if height is not None:
+        _thin_parts(scene, tree, prog, height, resolution)
+
+
+#: Surface points measured by ``info --height`` (a random sample of the mesh's vertices).
+THIN_SAMPLES = 20_000
+#: The nozzle width the report counts against, in mm.
+NOZZLE_MM = 0.4
+
+
+def _thin_parts(scene: str, tree: Node, prog, height: float, resolution: int) -> None:
+    """The thinnest spine and wall of the tree printed ``height`` mm tall (along its up)."""
+    with compile_notice():
+        mesh = polygonize(prog, resolution=resolution, progress=True)
+    if not len(mesh.vertices):
+        raise ValueError(f"{scene} has no surface to measure")
+    seen = scene_view(scene, tree)
+    up = np.array((0.0, 1.0, 0.0) if seen is None else seen[0], float)
+    along = mesh.vertices @ (up / np.linalg.norm(up))
+    mm = height / float(along.max() - along.min())  # millimetres per model unit
+    cell = float(np.max(mesh.vertices.max(0) - mesh.vertices.min(0))) / resolution
+    rng = np.random.default_rng(0)
+    pick = rng.choice(len(mesh.vertices), min(THIN_SAMPLES, len(mesh.vertices)), replace=False)
+    th = measure(prog, mesh.vertices[pick], step=cell / 2.0, depth=resolution * cell / 4.0)
+    click.echo(f"thin parts at {height:g} mm tall ({len(pick)} surface points of a "
+               f"{resolution}-cell mesh, {mm:.4g} mm per unit):")
+    for label, mask in (("spine (rod)", th.rods), ("wall (sheet)", th.sheets)):
+        found = th.thinnest(mask)
+        if found is None:
+            click.echo(f"  thinnest {label}: none found")
+        else:
+            t, where = found
+            click.echo(f"  thinnest {label}: {t * mm:.3g} mm at {np.round(where, 3)}")
+    edges = th.edges.mean() * 100.0
+    click.echo(f"  knife edges (thinner than {th.step * mm:.3g} mm, e.g. carved rims): {edges:.1f}%"
+               " of the surface")
+    thin = (th.across * mm < NOZZLE_MM).mean() * 100.0
+    click.echo(f"  thinner than a {NOZZLE_MM} mm nozzle: {thin:.1f}% of the surface")
 
 
 @main.command("models")

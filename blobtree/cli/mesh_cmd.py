@@ -11,29 +11,9 @@ import numpy as np
 from ..api import polygonize
 from ..files import check_writable
 from ..mesh.export import FORMATS, import_trimesh
-from . import compile_notice
+from . import compile_notice, length_mm
 from .cluster import cluster, cluster_options
 from .scenes import resolve_scene, scene_view
-
-#: Millimetres per unit of length accepted by --height.
-UNITS = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4}
-
-
-def _length(ctx, param, value):
-    """A click callback reading a length such as ``80mm`` or ``3in`` into millimetres."""
-    if value is None:
-        return None
-    text = value.strip().lower()
-    unit = next((u for u in sorted(UNITS, key=len, reverse=True) if text.endswith(u)), "mm")
-    number = text[: len(text) - len(unit)] if text.endswith(unit) else text
-    try:
-        mm = float(number) * UNITS[unit]
-    except ValueError:
-        mm = float("nan")
-    if not 0.01 <= mm <= 1e5:
-        raise click.BadParameter(f"expected a length from 0.01 mm to 100 m such as 80mm, 8cm or "
-                                 f"3in, got {value!r}")
-    return mm
 
 
 @click.command()
@@ -53,7 +33,7 @@ def _length(ctx, param, value):
     show_default=True,
     help="Cells across the longest side of the scene's bounds.",
 )
-@click.option("--height", callback=_length,
+@click.option("--height", callback=length_mm,
               help="Scale the mesh so the model is this tall (along its up direction: a "
                    "built-in model's own, else +y), e.g. 80mm, 8cm, 3in; a bare number is mm.  "
                    "Coordinates are then millimetres (3MF says so in the file).")

@@ -23,7 +23,7 @@ from .murex import (
 )
 from .pigment import ActivatorInhibitor, pigment_texture
 from .spec import SHELLS, ShellSpec, load_spec
-from .whorl import whorl126
+from .yardstick import whorl126
 
 __all__ = [
     "FIGURES", "MUREX_SPIRAL", "SHELLS", "TABLE_1", "TABLE_2", "ActivatorInhibitor",
