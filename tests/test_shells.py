@@ -207,3 +207,12 @@ def test_cli_lists_the_species_and_prints_a_spec_that_renders(tmp_path):
 def test_the_parts_are_functions_not_modules():
     """bt.models.whorl is Eq. 9's function (a submodule of that name once shadowed it)."""
     assert callable(bt.models.whorl) and callable(bt.models.shell) and callable(bt.models.murex)
+
+
+def test_render_without_a_camera_uses_the_view_the_shell_carries():
+    """bt.render(tree) frames a shell along its spec's view, apex up, as the preview does."""
+    tree = shell("oliva", textured=False)
+    spec = SHELLS["oliva"]
+    own = framed_camera(tree.program(), 32, 32, view=spec.view, up=spec.up)
+    assert np.array_equal(bt.render(tree, 32, 32, shadows=False),
+                          bt.render(tree, 32, 32, camera=own, shadows=False))
