@@ -16,7 +16,7 @@ from .mesh import polygonize as _polygonize
 from .mesh.web import page
 from .nodes import Node
 from .render import render as _render
-from .render.camera import default_camera, framed_camera
+from .render.camera import seen_camera
 
 
 def render(tree, width: int, height: int, *args: Any, scheduler=None,
@@ -24,21 +24,10 @@ def render(tree, width: int, height: int, *args: Any, scheduler=None,
     """Ray-trace ``tree`` into an (height, width, 3) uint8 sRGB image: see
     :func:`blobtree.render.render` for the arguments.  ``scheduler`` (a Dask address
     "tcp://HOST:PORT" or a ``distributed.Client``; ``tree`` must then be a tree, not a program)
-    renders the tiles on that cluster instead, with the same bytes.  Without a camera, a tree
-    is framed along the view :meth:`Node.shown` gave it (a shell: apex up, facing its
-    aperture), else from the default three-quarter view."""
-    if isinstance(tree, Node) and not args and options.get("camera") is None:
-        options["camera"] = _seen_camera(tree, tree.program(), width, height)
+    renders the tiles on that cluster instead, with the same bytes."""
     if scheduler is None:
         return _render(tree, width, height, *args, **options)
     return distributed.render(scheduler, tree, width, height, *args, **options)
-
-
-def _seen_camera(tree: Node, prog, width: int, height: int):
-    """The camera along the tree's own view (``Node.shown``), or the default one."""
-    up, view = tree.display
-    return (default_camera(prog, width, height, up=up) if view is None
-            else framed_camera(prog, width, height, view=view, up=up))
 
 
 def polygonize(tree, resolution: int | None = None, *, scheduler=None, **options: Any) -> Mesh:
@@ -60,7 +49,7 @@ def preview(tree: Node, size: int = PREVIEW_SIZE, **options: Any) -> np.ndarray:
     (a three-quarter view otherwise); ``options`` go to :func:`render`."""
     prog = tree.program()
     if "camera" not in options:
-        options["camera"] = _seen_camera(tree, prog, size, size)
+        options["camera"] = seen_camera(tree, prog, size, size)
     options.setdefault("shadows", False)
     return _render(prog, size, size, **options)
 

@@ -20,7 +20,7 @@ from tqdm.auto import tqdm
 from ..checks import Choice
 from ..engine.program import program_of
 from ..parallel import parallel_for
-from .camera import Camera, default_camera
+from .camera import Camera, seen_camera
 from .checkpoint import Checkpoint, job_key
 from .image import save_image
 from .shade import Light, default_lights, pack_lights
@@ -84,7 +84,7 @@ def render(tree, width: int, height: int, camera: Camera | None = None,
         raise ValueError(f"threads must be an integer >= 1, got {threads!r}")
     prog = program_of(tree)
     if camera is None:
-        camera = default_camera(prog, width, height)
+        camera = seen_camera(tree, prog, width, height)
     elif not isinstance(camera, Camera):
         raise ValueError(f"camera must be a blobtree Camera or None, got {camera!r}")
     lights = default_lights(camera) if lights is None else list(lights)

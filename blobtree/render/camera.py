@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..checks import RGB, Number, Vec3
+from ..nodes import Node
 
 #: Camera and light positions may lie this far from the origin.
 MAX_POSITION = 1e9
@@ -143,3 +144,12 @@ def default_camera(prog, width: int, height: int, up: tuple[float, float, float]
     toward_eye = (math.cos(el) * (math.cos(az) * side + math.sin(az) * other)
                   + math.sin(el) * up)
     return framed_camera(prog, width, height, view=tuple(-toward_eye), up=tuple(up))
+
+
+def seen_camera(tree, prog, width: int, height: int) -> Camera:
+    """The camera a tree is best seen from: framed along the view :meth:`Node.shown` gave it (a
+    shell: apex up, facing its aperture), else :func:`default_camera`; ``tree`` may also be a
+    program, which carries no view."""
+    up, view = tree.display if isinstance(tree, Node) else ((0.0, 1.0, 0.0), None)
+    return (default_camera(prog, width, height, up=up) if view is None
+            else framed_camera(prog, width, height, view=view, up=up))
