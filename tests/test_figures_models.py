@@ -95,4 +95,6 @@ def test_figure_9_straight_versus_bent_canal_spines():
 def test_figures_11_and_14_are_the_shell():
     assert count(F.figure_14(), bt.Primitive) == count(M.murex(0), bt.Primitive)
     left, right = (c.child for c in F.figure_11().children)
-    assert isinstance(left, bt.Difference) and isinstance(right, bt.Union)
+    assert left.key == M.murex(0, inside=False).key  # Eq. 14 only
+    assert right.key == M.murex(0).key  # with the inside wall, Eq. 15
+    assert count(right, bt.Primitive) > count(left, bt.Primitive)

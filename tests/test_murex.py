@@ -129,6 +129,33 @@ def test_body_whorl_is_one_piece():
     assert bt.polygonize(plain, resolution=192).component_count() > 1
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize("resolution", [128, 256])
+def test_the_murex_is_one_piece(resolution):
+    """Issue 19: the whole Murex meshes to one connected solid, no bubbles, no islands.  The
+    test of the test: with the paper's form of Eq. 15 as a union and the wall that only touched
+    the previous whorl (wall_scale 0.95), the same mesh had 24 pieces."""
+    mesh = bt.polygonize(M.murex(seed=0, textured=False), resolution=resolution)
+    assert mesh.is_watertight and mesh.component_count() == 1
+    old = replace(M.DEFAULT, wall_scale=0.95, inside_instances=(112, 127))
+    carved = bt.difference(M.outer_shell(0, old, False), M.opening(old))
+    touching = bt.union(carved, M.inside_wall(old))
+    assert bt.polygonize(touching, resolution=resolution).component_count() > 5
+
+
+def test_eq_15_clipped_is_eq_15_where_the_wall_is_inside():
+    """shell() computes S - (O - W), the union of Eq. 15 with the wall clipped to the shell:
+    the same field as max(min(S, 1 - O), min(S, W)) (distributivity), checked at points."""
+    spec = M.DEFAULT
+    s, o, w = M.outer_shell(0, spec, False), M.opening(spec), M.inside_wall(spec)
+    lo, hi = o.bounds()
+    pts = np.random.default_rng(3).uniform(lo, hi, (20000, 3))
+    fs, fo, fw = (t.program().field(pts) for t in (s, o, w))
+    expected = np.maximum(np.minimum(fs, 1.0 - np.minimum(fo, 1.0)), np.minimum(fs, fw))
+    got = M.murex(seed=0, textured=False).program().field(pts)
+    assert np.allclose(np.minimum(got, 1.0), np.minimum(expected, 1.0), atol=1e-12)
+
+
 def test_whorl_places_instances_by_eq_8():
     w = M.whorl(3, 5)
     assert count(w, bt.Point) == 3
@@ -180,9 +207,13 @@ def test_canal_spine_rows_follow_table_2():
 
 
 def test_whole_shell_structure_and_size(shell):
-    assert isinstance(shell, bt.Union)  # Eq. 15
-    carved, wall = shell.children
-    assert isinstance(carved, bt.Difference)  # Eq. 14
+    # Eq. 15 as B_shell - (B_opening - B_inside_wall) (see murex.shell), Eq. 14 inside
+    assert isinstance(shell, bt.Difference)
+    outer, hole = shell.children
+    assert isinstance(hole, bt.Difference)
+    opening, wall = hole.children
+    assert opening.key == M.opening().color(M.COLOURS["inside"]).key
+    assert wall.key == M.inside_wall().color(M.COLOURS["inside"]).key
     prims = count(shell, bt.Primitive)
     assert 500 < prims < 3000
     assert count(shell, bt.SuperBlend) == 1

@@ -33,7 +33,6 @@ from ..nodes import (
     controlled_blend,
     difference,
     super_blend,
-    union,
 )
 from ..texture import HelicoSurface
 from .helico import place
@@ -429,12 +428,17 @@ def bumps(seed: int | np.random.Generator | None = 0, intervals: range | list[in
 def canal_spine(size: float, rng: np.random.Generator | None = None,
                 spec: ShellSpec = DEFAULT) -> Node:
     """An axial canal spine of relative ``size`` (Table 2): a cone on +x from the origin, bent
-    1-3 times by 3-9 deg toward random directions at random places when ``rng`` is given."""
+    1-3 times by 3-9 deg toward random directions at random places when ``rng`` is given.  A
+    spine smaller than ``canal_spines.min_size`` keeps that size's thickness: scaled down with
+    its length, the smallest spines' tips (0.01-0.04 units) were thinner than a mesh cell and
+    broke off as islands (issue 19)."""
     if not (math.isfinite(size) and size > 0.0):
         raise ValueError(f"size must be a finite number > 0, got {size!r}")
     length = spec.canal_spine_length
-    node: Node = Cone((0.0, 0.0, 0.0), (length, 0.0, 0.0), radius_a=spec.canal_spine_radii[0],
-                      radius_b=spec.canal_spine_radii[1])
+    k = max(size, spec.canal_spine_min_size) / size
+    node: Node = Cone((0.0, 0.0, 0.0), (length, 0.0, 0.0),
+                      radius_a=spec.canal_spine_radii[0] * k,
+                      radius_b=spec.canal_spine_radii[1] * k)
     if rng is not None:
         lo, hi = spec.canal_spine_bends
         for _ in range(int(rng.integers(lo, hi + 1))):
@@ -619,7 +623,15 @@ def outer_shell(seed: int = 0, spec: ShellSpec = DEFAULT, textured: bool = True)
 def shell(spec: ShellSpec | Mapping | str | Path = "murex", seed: int = 0, inside: bool = True,
           textured: bool = True) -> Node:
     """A whole shell from its spec (Eq. 15 for the Murex):
-    B = (B_shell - B_opening) U B_inside_wall.
+    B = (B_shell - B_opening) U B_inside_wall, computed as B_shell - (B_opening - B_inside_wall).
+
+    The two forms are the same solid wherever the wall lies inside B_shell: min(S, max(1 - O,
+    W)) = max(min(S, 1 - O), min(S, W)) by distributivity, and the second form clips the wall to
+    the shell.  The paper's wall lies inside; ours is larger (``opening.wall_scale`` 1.2, ours)
+    so that it fills the crease the extension cones carve where the wall meets the previous
+    whorl.  With the union and a wall that just touched, that crease was sealed inside the
+    shell as 14-48 bubbles (pieces of the mesh); clipped, the larger wall closes it and cannot
+    show outside the shell.
 
     ``spec``: a :class:`ShellSpec`, the name of a shipped one (``SHELLS``), a path to a TOML
     spec file, or its parsed data.  ``seed`` drives the bump sizes, canal spine bends and
@@ -630,9 +642,10 @@ def shell(spec: ShellSpec | Mapping | str | Path = "murex", seed: int = 0, insid
     inside_c = spec.colours[3]
     carved = outer_shell(seed, spec, textured)
     if spec.opening:
-        carved = difference(carved, opening(spec).color(inside_c))
+        hole = opening(spec).color(inside_c)
         if inside:
-            carved = union(carved, inside_wall(spec).color(inside_c))
+            hole = difference(hole, inside_wall(spec).color(inside_c))
+        carved = difference(carved, hole)
     return carved.shown(up=spec.up, view=spec.view)
 
 

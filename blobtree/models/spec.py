@@ -182,6 +182,9 @@ class ShellSpec:
                                     "tilt toward the apex, degrees")
     canal_spine_base: float = _spec("canal_spines", "base", Number(0.0, 10.0),
                                     "base off the canal's centre line, in canal radii")
+    canal_spine_min_size: float = _spec("canal_spines", "min_size", Number(0.0, 10.0),
+                                        "spines smaller than this keep its thickness (cone radii "
+                                        "times max(size, min_size) / size): printable tips")
     canal_spine_bends: tuple = _spec("canal_spines", "bends", Numbers(2, Integer(0, 10)),
                                      "each bent this many times (range) ...")
     canal_spine_bend_deg: tuple = _spec("canal_spines", "bend_degrees", Numbers(2, _ANGLE),
