@@ -131,7 +131,7 @@ def penumbra(code, params, boxes, x, y, z, t, light_tan, vstack, pstack):
     that surface lies about d = (0.5 - f) / |grad f| away (the field's first-order Taylor
     estimate), and the light's disc, t * light_tan wide there, is seen in full once d exceeds
     it (the penumbra of an area light, estimated from one ray)."""
-    interp.eval_point(code, params, boxes, x, y, z, 2, vstack, pstack)  # (shading's mode)
+    interp.eval_point(code, params, boxes, x, y, z, 1, vstack, pstack)  # value and gradient
     g = np.sqrt(vstack[0, 1] ** 2 + vstack[0, 2] ** 2 + vstack[0, 3] ** 2)
     if g <= 0.0 or t <= 0.0:
         return 1.0
