@@ -66,21 +66,19 @@ def grown_table(spec: ShellSpec) -> tuple[tuple[tuple[float, float], ...], ...]:
     arcs = _arcs(spec)
     peaks: list[list[tuple[float, float]]] = []
     for w, arc in enumerate(arcs):
-        steps = STEPS_PER_WHORL
-        for k in range(steps):
-            if arc is None:
-                state[2] = 0.0 * sources
-                continue
-            prev = arcs[w - 1] if w > 0 and arcs[w - 1] is not None else arc
-            f = (k + 1) / steps  # the arc widens through the whorl
+        if arc is None:  # before the first spines: no competent cells, nothing grows
+            peaks.append([])
+            continue
+        prev = arcs[w - 1] if w > 0 and arcs[w - 1] is not None else arc
+        for k in range(STEPS_PER_WHORL):
+            f = (k + 1) / STEPS_PER_WHORL  # the arc widens through the whorl
             lo = prev[0] + f * (arc[0] - prev[0])
             hi = prev[1] + f * (arc[1] - prev[1])
             state[2] = np.where((angles >= lo) & (angles <= hi), sources, 0.0)
             MODEL.step(state)
         a = state[0]
         top = (a[1:-1] > a[:-2]) & (a[1:-1] >= a[2:]) & (a[1:-1] > PEAK_LEVEL * a_star)
-        idx = np.flatnonzero(top) + 1
-        peaks.append([(float(angles[i]), float(a[i])) for i in idx] if arc is not None else [])
+        peaks.append([(float(angles[i]), float(a[i])) for i in np.flatnonzero(top) + 1])
     heights = [h for row in peaks for _, h in row]
     deltas = [d for row in spec.table_1 for _, d in row] or [1.0]
     mean_h = float(np.mean(heights)) if heights else 1.0

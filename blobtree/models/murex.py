@@ -350,14 +350,15 @@ def varices(spec: ShellSpec = DEFAULT, texture: np.ndarray | None = None) -> lis
     12(b)), field-interpolated on the spines' cones (Section 3.4), the tori painted in the
     texture's pale ground colour."""
     wrap = SHELL_TEXTURES["varix_spine"].wrap
+    which = _varix_whorls(spec)
     out = []
-    for k, w in _varix_whorls(spec):
+    for k, w in which:
         if texture is None:
             v = varix(w, spec=spec)
         else:
             v = varix(w, spec=spec, tori_rgb=VARIX_PALE).texture(texture, wrap=wrap)
         out.append(place(v, varix_angle(k, spec), spec.spiral))
-    canal_varices = [canal_varix(k, spec) for k, _ in _varix_whorls(spec) if _on_canal(k, spec)]
+    canal_varices = [canal_varix(k, spec) for k, _ in which if _on_canal(k, spec)]
     if texture is not None:
         canal_varices = [v.texture(texture, wrap=wrap) for v in canal_varices]
     return out + canal_varices
@@ -374,8 +375,7 @@ def canal_varix(k: int, spec: ShellSpec = DEFAULT) -> Node:
     shrinking toward the canal's tip, placed like the canal spines (Table 2) at the varix."""
     _, _, length = _canal_geometry(spec)
     n = spec.varices_down_canal
-    size = max(d for _, d in spine_table(spec)[whorl_of_varix(k, spec) - 1]) \
-        if spine_table(spec)[whorl_of_varix(k, spec) - 1] else 1.0
+    size = max((d for _, d in spine_table(spec)[whorl_of_varix(k, spec) - 1]), default=1.0)
     parts = []
     for j in range(n):
         t = length * (0.1 + 0.8 * j / max(n - 1, 1))

@@ -19,7 +19,6 @@ as data (``tomllib``), never executed.
 
 from __future__ import annotations
 
-import math
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields, replace
@@ -27,7 +26,7 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
-from ..checks import Choice, Integer, Kind, Number, is_number, positive, short_repr
+from ..checks import Choice, Integer, Kind, Number, positive, short_repr
 from ..spiral import HelicoSpiral
 from ..textures import PATTERNS
 
@@ -357,9 +356,6 @@ def _spiral(values: dict) -> HelicoSpiral:
     for key in ("beta", "rho", "r0"):
         if key not in values:
             raise ValueError(f"spiral.{key} is missing")
-    ratio = values.get("d_ratio")
-    if ratio is not None and not (is_number(ratio) and math.isfinite(ratio)):
-        raise ValueError(f"spiral.d_ratio must be a finite number, got {short_repr(ratio)}")
     try:
         return HelicoSpiral(**values)
     except ValueError as e:
@@ -428,8 +424,8 @@ def to_toml(spec: ShellSpec) -> str:
     """The whole spec as TOML, every key with its meaning as a comment: a complete file to
     start a new species from (``blobtree spec NAME``); :func:`load_spec` reads it back equal."""
     lines = [f"# Shell spec, version {VERSION} (docs/shells.md).", f"version = {VERSION}",
-             f"name = {_toml_value(spec.name)}", "", "[spiral]  # " + dict(
-                 (f.name, f.metadata["doc"]) for f in fields(ShellSpec))["spiral"]]
+             f"name = {_toml_value(spec.name)}", "",
+             "[spiral]  # " + ShellSpec.__dataclass_fields__["spiral"].metadata["doc"]]
     for key in SPIRAL_KEYS:
         value = getattr(spec.spiral, key)
         if value is not None:
