@@ -202,6 +202,10 @@ def test_cli_lists_the_species_and_prints_a_spec_that_renders(tmp_path):
                              "--no-shadows"])
     assert r.exit_code == 0, r.output
     assert png.stat().st_size > 0
+    ply = tmp_path / "mine.ply"
+    r = runner.invoke(main, ["mesh", str(out), "-o", str(ply), "--resolution", "24"])
+    assert r.exit_code == 0, r.output
+    assert "watertight: yes" in r.output and ply.stat().st_size > 0
 
 
 def test_the_parts_are_functions_not_modules():
