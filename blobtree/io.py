@@ -3,14 +3,15 @@
 A scene file is data: loading builds nodes from the registry of node types and never executes
 code.  Every error names the JSON path of the problem, e.g. ``$.nodes[3].params.radius``.
 
-Version 3 (written) is version 2 with the controlled blend's ``groups`` and ``n``; a file of an
-earlier version lacks the parameters added since (``Param.since``), which take their defaults.
+Version 4 (written) is version 3 with the difference's ``smooth``; version 3 is version 2 with
+the controlled blend's ``groups`` and ``n``.  A file of an earlier version lacks the parameters
+added since (``Param.since``), which take their defaults.
 
 Version 2 lists each distinct node once, children before parents, and refers to
 children by their index in that list, so a subtree used in several places (the paper's
 P(B, theta) reuses B) is stored once, and no depth of nesting strains the reader::
 
-    {"format": "blobtree-scene", "version": 3, "images": {KEY: BASE64_PNG, ...},
+    {"format": "blobtree-scene", "version": 4, "images": {KEY: BASE64_PNG, ...},
      "nodes": [{"type": "point", "params": {...}}, {"type": "scale", "params": {...},
                 "children": [0]}, ...],
      "root": 1}
@@ -33,7 +34,7 @@ from .nodes.base import arity_words
 from .texture import image_from_text, image_to_text
 
 FORMAT = "blobtree-scene"
-VERSION = 3
+VERSION = 4
 
 
 class SceneError(ValueError):

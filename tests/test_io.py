@@ -69,7 +69,7 @@ def test_version_1_files_still_load(tree):
     if images:
         doc["images"] = {k: image_to_text(v) for k, v in images.items()}
     assert loads(json.dumps(doc)) == tree
-    assert json.loads(dumps(tree))["version"] == 3
+    assert json.loads(dumps(tree))["version"] == 4
 
 
 def test_files_older_than_a_parameter_give_it_its_default():

@@ -133,11 +133,12 @@ def test_body_whorl_is_one_piece():
 @pytest.mark.parametrize("resolution", [128, 256])
 def test_the_murex_is_one_piece(resolution):
     """Issue 19: the whole Murex meshes to one connected solid, no bubbles, no islands.  The
-    test of the test: with the paper's form of Eq. 15 as a union and the wall that only touched
-    the previous whorl (wall_scale 0.95), the same mesh had 24 pieces."""
+    test of the test: with the paper's form of Eq. 15 as a union, sharp differences and the
+    wall that only touched the previous whorl (wall_scale 0.95), the same mesh had 24 pieces."""
     mesh = bt.polygonize(M.murex(seed=0, textured=False), resolution=resolution)
     assert mesh.is_watertight and mesh.component_count() == 1
-    old = replace(M.DEFAULT, wall_scale=0.95, inside_instances=(112, 127))
+    old = replace(M.DEFAULT, wall_scale=0.95, inside_instances=(112, 127), lip_smooth=0.0,
+                  cut_smooth=0.0)
     carved = bt.difference(M.outer_shell(0, old, False), M.opening(old))
     touching = bt.union(carved, M.inside_wall(old))
     assert bt.polygonize(touching, resolution=resolution).component_count() > 5
@@ -145,15 +146,23 @@ def test_the_murex_is_one_piece(resolution):
 
 def test_eq_15_clipped_is_eq_15_where_the_wall_is_inside():
     """shell() computes S - (O - W), the union of Eq. 15 with the wall clipped to the shell:
-    the same field as max(min(S, 1 - O), min(S, W)) (distributivity), checked at points."""
-    spec = M.DEFAULT
+    with sharp differences the same field as max(min(S, 1 - O), min(S, W)) (distributivity),
+    checked at points.  Rounded as shipped, it stays within the rounding's reach of that field:
+    each rounded min lies within smooth / 4 of the min, and min and 1 - f pass differences on
+    unchanged, so at most lip_smooth / 4 + 2 cut_smooth / 4 (Eq. 14's cut and the wall's)."""
+    spec = replace(M.DEFAULT, lip_smooth=0.0, cut_smooth=0.0)
     s, o, w = M.outer_shell(0, spec, False), M.opening(spec), M.inside_wall(spec)
     lo, hi = o.bounds()
     pts = np.random.default_rng(3).uniform(lo, hi, (20000, 3))
     fs, fo, fw = (t.program().field(pts) for t in (s, o, w))
-    expected = np.maximum(np.minimum(fs, 1.0 - np.minimum(fo, 1.0)), np.minimum(fs, fw))
-    got = M.murex(seed=0, textured=False).program().field(pts)
-    assert np.allclose(np.minimum(got, 1.0), np.minimum(expected, 1.0), atol=1e-12)
+    expected = np.minimum(np.maximum(np.minimum(fs, 1.0 - np.minimum(fo, 1.0)),
+                                     np.minimum(fs, fw)), 1.0)
+    got = np.minimum(M.shell(spec, textured=False).program().field(pts), 1.0)
+    assert np.allclose(got, expected, atol=1e-12)
+    rounded = np.minimum(M.murex(seed=0, textured=False).program().field(pts), 1.0)
+    reach = (M.DEFAULT.lip_smooth + 2.0 * M.DEFAULT.cut_smooth) / 4.0
+    assert np.all(np.abs(rounded - expected) <= reach + 1e-12)
+    assert np.abs(rounded - expected).max() > 0.1 * reach  # the rounding acts somewhere
 
 
 def test_whorl_places_instances_by_eq_8():

@@ -105,7 +105,7 @@ def test_3mf_at_a_real_height_in_millimetres(tmp_path):
     r = CliRunner().invoke(main, ["mesh", str(scene), "-o", str(out), "-r", "64",
                                   "--height", "8cm", "--min-piece", "2000"])
     assert r.exit_code == 0, r.output
-    assert "80 mm tall" in r.output and "dropped 1 piece" in r.output and "pieces: 1" in r.output
+    assert "80 mm tall" in r.output and "dropped 1 piece" in r.output and "solids: 1" in r.output
     with zipfile.ZipFile(out) as z:
         model = z.read("3D/3dmodel.model").decode()
     assert 'unit="millimeter"' in model
@@ -123,7 +123,7 @@ def test_stl_keeps_working_and_height_scales_it(tmp_path):
     r = CliRunner().invoke(main, ["mesh", str(scene), "-o", str(out), "-r", "48",
                                   "--height", "1.5in"])
     assert r.exit_code == 0, r.output
-    assert "pieces: 2" in r.output  # nothing dropped unless asked
+    assert "solids: 2" in r.output  # nothing dropped unless asked
     assert trimesh.load(out, force="mesh").extents[1] == pytest.approx(38.1, abs=1e-3)
 
 

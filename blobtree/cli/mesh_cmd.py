@@ -73,5 +73,10 @@ def mesh(scene: str, output: Path, resolution: int, height: float | None,
     click.echo(
         f"{output}: {len(result.faces)} triangles, {seconds:.2f} s, "
         f"watertight: {'yes' if result.is_watertight else 'no'}, "
-        f"pieces: {result.component_count()}" + "".join(f", {n}" for n in notes)
+        f"solids: {result.solid_count()}{_bubbles(result.bubble_count())}"
+        + "".join(f", {n}" for n in notes)
     )
+
+
+def _bubbles(count: int) -> str:
+    return f" (and {count} bubble{'s' if count != 1 else ''} sealed inside)" if count else ""

@@ -114,6 +114,17 @@ class Mesh:
         """Number of connected pieces (faces sharing a vertex are connected)."""
         return 0 if len(self.faces) == 0 else int(self._pieces().max()) + 1
 
+    def solid_count(self) -> int:
+        """Number of separate solids: the closed pieces wound outward (enclosing positive
+        volume).  A bubble sealed inside a solid is a piece wound inward and belongs to the
+        solid around it (see :meth:`bubble_count`)."""
+        return int((self.piece_volumes() > 0.0).sum())
+
+    def bubble_count(self) -> int:
+        """Number of bubbles: closed pieces wound inward (negative volume), each the wall of an
+        empty space sealed inside a solid."""
+        return int((self.piece_volumes() < 0.0).sum())
+
     def _pieces(self) -> np.ndarray:
         """Each face's piece, numbered from 0."""
         roots = _union_faces(np.ascontiguousarray(self.faces, dtype=np.int64), len(self.vertices))

@@ -550,8 +550,9 @@ def previous_whorl(spec: ShellSpec = DEFAULT) -> Node:
 
 
 def opening(spec: ShellSpec = DEFAULT) -> Node:
-    """Eq. 14: B_opening = B_inside - B_w 94..108 (Figure 10 right): the previous whorl is kept."""
-    return difference(inside_whorl(spec), previous_whorl(spec))
+    """Eq. 14: B_opening = B_inside - B_w 94..108 (Figure 10 right): the previous whorl is kept
+    (the difference rounded by ``opening.cut_smooth``, see :func:`shell`)."""
+    return difference(inside_whorl(spec), previous_whorl(spec), smooth=spec.cut_smooth)
 
 
 def inside_wall(spec: ShellSpec = DEFAULT) -> Node:
@@ -561,7 +562,7 @@ def inside_wall(spec: ShellSpec = DEFAULT) -> Node:
     wall = whorl(a, spec.instances - 1, generating_point(spec.wall_scale * spec.point_radius,
                                                           spec), spec)
     hollow = whorl(a, b, generating_point(spec.inside_scale * spec.point_radius, spec), spec)
-    return difference(wall, hollow)
+    return difference(wall, hollow, smooth=spec.cut_smooth)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -633,6 +634,18 @@ def shell(spec: ShellSpec | Mapping | str | Path = "murex", seed: int = 0, insid
     shell as 14-48 bubbles (pieces of the mesh); clipped, the larger wall closes it and cannot
     show outside the shell.
 
+    The differences are rounded (``Difference.smooth``): the carving of the lip by
+    ``opening.lip_smooth``, Eq. 14's cut and the wall's by ``opening.cut_smooth``.  The sharp
+    CSG difference leaves knife edges wherever a carved surface leaves another at a grazing
+    angle: along the aperture's lip, the slit the inner canal cones open down the canal, the
+    inside wall's rim.  There the field only just reaches 0.5 over a wall thinner than a mesh
+    cell, and a mesher sampling it keeps fragments of it as separate slivers, different ones at
+    each resolution (1-6 extra solids per shell from 128 to 512 cells with sharp cuts, 24-61
+    before the wall was clipped).  A rounded difference is within smooth / 4 of the sharp one
+    and only removes the part of such an edge thinner than about smooth / (2 |grad f|): the
+    lip is blunt, as a real shell's is.  The solid is still Eqs. 14 and 15, with its edges
+    rounded rather than sharp; ``lip_smooth = cut_smooth = 0`` gives the sharp form.
+
     ``spec``: a :class:`ShellSpec`, the name of a shipped one (``SHELLS``), a path to a TOML
     spec file, or its parsed data.  ``seed`` drives the bump sizes, canal spine bends and
     textures; ``inside=False`` stops at Eq. 14 (no inside wall, Figure 11 left);
@@ -644,8 +657,8 @@ def shell(spec: ShellSpec | Mapping | str | Path = "murex", seed: int = 0, insid
     if spec.opening:
         hole = opening(spec).color(inside_c)
         if inside:
-            hole = difference(hole, inside_wall(spec).color(inside_c))
-        carved = difference(carved, hole)
+            hole = difference(hole, inside_wall(spec).color(inside_c), smooth=spec.cut_smooth)
+        carved = difference(carved, hole, smooth=spec.lip_smooth)
     return carved.shown(up=spec.up, view=spec.view)
 
 

@@ -208,6 +208,11 @@ class ShellSpec:
                                    "how far past the previous whorl's surface they reach")
     wall_scale: float = _spec("opening", "wall_scale", Number(0.01, 2.0),
                               "inside wall (Eq. 15) point radius / point_radius")
+    lip_smooth: float = _spec("opening", "lip_smooth", Number(0.0, 0.5),
+                              "rounding of the carved lip (Eq. 15's difference), in field "
+                              "value: 0 = the sharp CSG cut")
+    cut_smooth: float = _spec("opening", "cut_smooth", Number(0.0, 0.5),
+                              "rounding of Eq. 14's difference and of the wall's, in field value")
     texture: str = _spec("look", "texture", Choice(("paper", "plain", *PATTERNS)),
                          "'paper': Figure 12's textures; 'plain': colours; or a pigment pattern "
                          "of bt.textures.PATTERNS grown along the body")
