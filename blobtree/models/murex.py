@@ -640,7 +640,7 @@ def shell(spec: ShellSpec | Mapping | str | Path = "murex", seed: int = 0, insid
     angle: along the aperture's lip, the slit the inner canal cones open down the canal, the
     inside wall's rim.  There the field only just reaches 0.5 over a wall thinner than a mesh
     cell, and a mesher sampling it keeps fragments of it as separate slivers, different ones at
-    each resolution (1-6 extra solids per shell from 128 to 512 cells with sharp cuts, 24-61
+    each resolution (up to 4 extra solids per shell from 128 to 512 cells with sharp cuts, 24-61
     before the wall was clipped).  A rounded difference is within smooth / 4 of the sharp one
     and only removes the part of such an edge thinner than about smooth / (2 |grad f|): the
     lip is blunt, as a real shell's is.  The solid is still Eqs. 14 and 15, with its edges
