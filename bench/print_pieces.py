@@ -36,7 +36,7 @@ def main() -> int:
             start = time.perf_counter()
             mesh = bt.polygonize(tree, resolution=resolution)
             seconds = time.perf_counter() - start
-            solids, bubbles = mesh.solid_count(), mesh.bubble_count()
+            solids, bubbles = mesh.solids_and_bubbles()
             failed |= solids != 1 or not mesh.is_watertight
             cells.append(f"{resolution}: {solids}" + (f"+{bubbles}b" if bubbles else "")
                          + f" ({seconds:.1f} s)")

@@ -70,13 +70,11 @@ def mesh(scene: str, output: Path, resolution: int, height: float | None,
                      f"{min_piece:g}")
     result.save(output)
     seconds = time.perf_counter() - start
+    solids, bubbles = result.solids_and_bubbles()
+    plural = "s" if bubbles != 1 else ""
+    sealed = f" (and {bubbles} bubble{plural} sealed inside)" if bubbles else ""
     click.echo(
         f"{output}: {len(result.faces)} triangles, {seconds:.2f} s, "
         f"watertight: {'yes' if result.is_watertight else 'no'}, "
-        f"solids: {result.solid_count()}{_bubbles(result.bubble_count())}"
-        + "".join(f", {n}" for n in notes)
+        f"solids: {solids}{sealed}" + "".join(f", {n}" for n in notes)
     )
-
-
-def _bubbles(count: int) -> str:
-    return f" (and {count} bubble{'s' if count != 1 else ''} sealed inside)" if count else ""

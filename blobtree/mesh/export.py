@@ -115,15 +115,15 @@ class Mesh:
         return 0 if len(self.faces) == 0 else int(self._pieces().max()) + 1
 
     def solid_count(self) -> int:
-        """Number of separate solids: the closed pieces wound outward (enclosing positive
-        volume).  A bubble sealed inside a solid is a piece wound inward and belongs to the
-        solid around it (see :meth:`bubble_count`)."""
-        return int((self.piece_volumes() > 0.0).sum())
+        """Number of separate solids (see :meth:`solids_and_bubbles`)."""
+        return self.solids_and_bubbles()[0]
 
-    def bubble_count(self) -> int:
-        """Number of bubbles: closed pieces wound inward (negative volume), each the wall of an
-        empty space sealed inside a solid."""
-        return int((self.piece_volumes() < 0.0).sum())
+    def solids_and_bubbles(self) -> tuple[int, int]:
+        """(solids, bubbles): the closed pieces wound outward (enclosing positive volume) and
+        those wound inward (negative volume), each the wall of an empty space sealed inside a
+        solid, which belongs to that solid."""
+        volumes = self.piece_volumes()
+        return int((volumes > 0.0).sum()), int((volumes < 0.0).sum())
 
     def _pieces(self) -> np.ndarray:
         """Each face's piece, numbered from 0."""
