@@ -170,7 +170,7 @@ def _evaluate(text: str, method: str, *arrays: np.ndarray) -> Any:
 
 
 class RemoteProgram:
-    """A program whose batched evaluations (``field``, ``evaluate``, ``lipschitz``) run on the
+    """A program whose batched evaluations (``field``, ``evaluate``, ``bound_at``) run on the
     cluster, giving the same values as the local program: chunks of at least
     ``GRID_MIN_POINTS`` rows (or the whole batch when smaller) take the same evaluation path as
     the whole batch would."""
@@ -202,9 +202,12 @@ class RemoteProgram:
         parts = self._map("evaluate", points)
         return tuple(np.concatenate([p[i] for p in parts]) for i in range(3))
 
-    def lipschitz(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-        """A bound on |grad f| over each box [lo, hi] (M, 3)."""
-        return np.concatenate(self._map("lipschitz", lo, hi))
+    def bound_at(self, lo: np.ndarray, hi: np.ndarray,
+                 at: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The field at the points ``at`` (M, 3) and a bound on |grad f| over each box [lo, hi]
+        holding them."""
+        parts = self._map("bound_at", lo, hi, at)
+        return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
 
 
 def polygonize(scheduler: str | Client, tree: Node, **options: Any) -> mesh.Mesh:

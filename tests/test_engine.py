@@ -214,10 +214,10 @@ def test_segment_lipschitz_bounds_hold_on_random_trees(tree, seed, frac):
     dirs = rng.normal(size=(30, 3))
     dirs /= np.linalg.norm(dirs, axis=1)[:, None]
     length = frac * float(np.linalg.norm(hi - lo)) + 1e-3
-    vs, _ = K.scratch(prog.depth)
+    vs, ps = K.scratch(prog.depth)
     code, params, boxes, lips = prog.arrays
     for o, d in zip(starts, dirs, strict=True):
-        bound = K.lipschitz_segment(code, params, boxes, lips, *o, *d, length, vs)
+        bound = K.lipschitz_segment(code, params, boxes, lips, *o, *d, length, vs, ps)[1]
         Q = o + np.linspace(0.0, length, 200)[:, None] * d
         slope = np.abs(tree.reference(Q)[1] @ d)
         assert slope.max() <= bound * (1 + 1e-9) + 1e-12
@@ -233,13 +233,13 @@ def test_point_directional_bound_is_the_largest_slope(falloff, radius, seed):
     prog = tree.program()
     rng = np.random.default_rng(seed)
     code, params, boxes, lips = prog.arrays
-    vs, _ = K.scratch(prog.depth)
+    vs, ps = K.scratch(prog.depth)
     for _ in range(20):
         o = rng.uniform(-1.5, 1.5, 3) * radius
         d = rng.normal(size=3)
         d /= np.linalg.norm(d)
         length = rng.uniform(0.05, 3.0) * radius
-        bound = K.lipschitz_segment(code, params, boxes, lips, *o, *d, length, vs)
+        bound = K.lipschitz_segment(code, params, boxes, lips, *o, *d, length, vs, ps)[1]
         Q = o + np.linspace(0.0, length, 4001)[:, None] * d
         slope = np.abs(tree.reference(Q)[1] @ d).max()
         assert slope <= bound * (1 + 1e-9) + 1e-12
@@ -301,3 +301,28 @@ def test_a_subtrahend_absent_here_does_not_paint():
     np.testing.assert_allclose(cr[capped], [[0.9, 0.2, 0.1]] * capped.sum())
     live = fr > 1e-9
     np.testing.assert_allclose(c[live], cr[live], rtol=1e-9, atol=1e-9)
+
+
+@given(trees(), st.integers(0, 2**31), st.floats(0.02, 0.6))
+def test_value_aware_bounds_hold_on_random_trees(tree, seed, frac):
+    """With the field values at a point of the box, CSG operators drop the bounds of children
+    that cannot set the result there: the field it returns is the field at the point, and the
+    bound still bounds |grad f| over the whole box."""
+    from blobtree.engine import interp as K
+
+    prog = tree.program()
+    lo, hi = tree.bounds()
+    if np.any(lo > hi):
+        return
+    rng = np.random.default_rng(seed)
+    size = frac * (hi - lo) + 1e-3
+    vs, ps = K.scratch(prog.depth)
+    code, params, boxes, lips = prog.arrays
+    for corner in sample_points(tree, 30, seed):
+        x = rng.uniform(corner, corner + size)
+        f, bound = K.bound_box_at(code, params, boxes, lips, *corner, *(corner + size), *x, vs,
+                                  ps)
+        assert abs(f - tree.reference(x[None])[0][0]) <= 1e-12
+        Q = rng.uniform(corner, corner + size, (200, 3))
+        g = np.linalg.norm(tree.reference(Q)[1], axis=1)
+        assert g.max() <= bound * (1 + 1e-9) + 1e-12

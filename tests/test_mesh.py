@@ -203,8 +203,9 @@ class CountingProgram:
         self.points.append(np.array(P))
         return self.prog.evaluate(P)
 
-    def lipschitz(self, lo, hi):
-        return self.prog.lipschitz(lo, hi)
+    def bound_at(self, lo, hi, at):
+        self.points.append(np.array(at))
+        return self.prog.bound_at(lo, hi, at)
 
 
 def test_samples_follow_the_surface():

@@ -104,9 +104,10 @@ def _dispatcher(name: str, args: str, kind: str, case: str, miss: str) -> str:
 
 #: Kernels compiled into their dispatcher (the rest are called): the bounds the ray tracer asks
 #: for at every step, and the operators, whose work is small next to a call.
-INLINE_KERNELS = ("along", "lipschitz", "combine", "rows")
+INLINE_KERNELS = ("along", "lipschitz", "combine", "rows", "bound")
 #: Dispatchers compiled into their one caller.
-INLINE_DISPATCHERS = ("prim_s", "prim_along", "prim_lipschitz", "combine", "combine_rows")
+INLINE_DISPATCHERS = ("prim_s", "prim_along", "prim_lipschitz", "combine", "combine_rows",
+                      "op_bound")
 
 
 def _kernels() -> dict[str, object]:
@@ -148,6 +149,9 @@ SOURCE = "".join([
     _dispatcher("prim_rows", "fid, p, o, pts, pp, vs, sp, nb", "primitive", _ROWS, "return"),
     _dispatcher("combine", "vs, b, k, p, o, mode", "operator",
                 "K.combine(vs, b, k, p, o, mode)\nreturn", "return"),
+    _dispatcher("op_bound", "vs, ps, b, k, p, o, reach", "operator",
+                lambda c: ("K.bound(vs, ps, b, k, p, o, reach)\nreturn True" if c.KERNELS.bound
+                           else "return False"), "return False"),
     _dispatcher("combine_rows", "vs, b, k, p, o, nb, tmp", "operator",
                 lambda c: ("K.rows(vs, b, k, p, o, nb)\nreturn" if c.KERNELS.rows
                            else _ROWS_FROM_COMBINE), "return"),
@@ -176,7 +180,7 @@ def _build() -> dict[str, object]:
                  "fo": kmath.fo, "map_point": kmath.map_point, **_kernels()}
     exec(compile(SOURCE, __file__, "exec"), namespace)  # noqa: S102 (our own generated code)
     names = ("prim_s", "prim_uv", "prim_lipschitz", "prim_along", "prim_rows", "combine",
-             "combine_rows", "warp_map", "paint")
+             "op_bound", "combine_rows", "warp_map", "paint")
     return {name: kernel(namespace[name],
                          inline="always" if name in INLINE_DISPATCHERS else "never")
             for name in names}
@@ -195,6 +199,9 @@ prim_along = _D["prim_along"]
 prim_rows = _D["prim_rows"]
 #: operator over the value stack: combine(op, vs, b, k, p, o, mode)
 combine = _D["combine"]
+#: an operator's value-aware bound over a region, if it has one (False: apply its rule):
+#: op_bound(op, vs, ps, b, k, p, o, reach)
+op_bound = _D["op_bound"]
 #: operator over batch rows: combine_rows(op, vs, b, k, p, o, nb, tmp)
 combine_rows = _D["combine_rows"]
 #: canonical warp map and Jacobian: warp_map(op, p, o, X, Y, Z)

@@ -20,7 +20,7 @@ import math
 import numpy as np
 
 from ..jit import kernel
-from ..nodes.base import FALLOFF
+from ..nodes.base import BOUND, FALLOFF
 from ..nodes.kmath import fo, fo_ds, map_box, map_point, texel
 from .dispatch import (
     K_BOX,
@@ -34,6 +34,7 @@ from .dispatch import (
     SUM,
     combine,
     kind_of,
+    op_bound,
     paint,
     prim_along,
     prim_lipschitz,
@@ -222,96 +223,127 @@ def _prim_bound(op, p, o, lip, ray, pp, lox, loy, loz, hix, hiy, hiz, ox, oy, oz
 
 
 @kernel
-def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox, oy, oz, dx,
-               dy, dz, length, vs):
+def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, values, ox, oy, oz,
+               dx, dy, dz, length, vs, ps):
     """``lipschitz_box``; with ``ray``, primitives with a directional bound (outside warps) take
-    it along the segment o + t d, 0 <= t <= length inside the box."""
+    it along the segment o + t d, 0 <= t <= length inside the box; with ``values``, the field at
+    o (which must lie in the box) is evaluated along, and operators with a ``bound`` kernel use
+    their children's values to drop the bounds of children that cannot set the result anywhere
+    in the region (a CSG operator's loser).  Returns (the field at o, or 0; the bound).
+
+    Stacks: fields in vs[:, 0], bounds in ps[:, BOUND]; ps[pp, 0:3] saves the point and
+    ps[pp, 3:9] the region across warps."""
     n = code.shape[0]
+    p = params
     sp = 0
     pp = 0
+    px, py, pz = ox, oy, oz
     i = 0
     while i < n:
         op = code[i, 0]
         kind = kind_of(op)
         if kind == K_PRIMITIVE:
+            vs[sp, 0] = 0.0
             if misses(boxes, i, lox, loy, loz, hix, hiy, hiz):
-                vs[sp, 0] = 0.0
+                ps[sp, BOUND] = 0.0
             else:
-                vs[sp, 0] = _prim_bound(op, params, code[i, 1], lips[i], ray, pp, lox, loy, loz,
-                                        hix, hiy, hiz, ox, oy, oz, dx, dy, dz, length)
+                ps[sp, BOUND] = _prim_bound(op, p, code[i, 1], lips[i], ray, pp, lox, loy, loz,
+                                            hix, hiy, hiz, ox, oy, oz, dx, dy, dz, length)
+                if values and not outside(boxes, i, px, py, pz):
+                    _primitive(op, code, i, p, code[i, 1], px, py, pz, 0, vs, sp)
             sp += 1
             i += 1
         elif kind == K_OPERATOR:
             k = code[i, 3]
             b = sp - k
-            acc = 0.0
-            if LIPSCHITZ[op] == SUM:
-                for j in range(b, sp):
-                    acc += vs[j, 0]
-            else:
-                for j in range(b, sp):
-                    acc = max(acc, vs[j, 0])
-            vs[b, 0] = acc
+            o = code[i, 1]
+            reach = math.sqrt((hix - lox) ** 2 + (hiy - loy) ** 2 + (hiz - loz) ** 2)
+            if not (values and op_bound(op, vs, ps, b, k, p, o, reach)):
+                acc = 0.0
+                if LIPSCHITZ[op] == SUM:
+                    for j in range(b, sp):
+                        acc += ps[j, BOUND]
+                else:
+                    for j in range(b, sp):
+                        acc = max(acc, ps[j, BOUND])
+                ps[b, BOUND] = acc
+            if values:
+                combine(op, vs, b, k, p, o, 0)
             sp = b + 1
             i += 1
         elif kind == K_BOX or kind == K_PUSHPT or kind == K_WARP:
             if misses(boxes, i, lox, loy, loz, hix, hiy, hiz):
                 vs[sp, 0] = 0.0
+                ps[sp, BOUND] = 0.0
                 sp += 1
                 i = code[i, 2]
                 continue
             o = code[i, 1]
-            if kind == K_PUSHPT:  # save the region, carry it into the warp's frame
+            if kind == K_PUSHPT:  # save the point and region, carry them into the warp's frame
                 pp += 1
-                vs[pp, 1], vs[pp, 2], vs[pp, 3] = lox, loy, loz
-                vs[pp, 4], vs[pp, 5], vs[pp, 6] = hix, hiy, hiz
-                cx, cy, cz, ex, ey, ez = map_box(params, o, lox, loy, loz, hix, hiy, hiz)
+                ps[pp, 0], ps[pp, 1], ps[pp, 2] = px, py, pz
+                ps[pp, 3], ps[pp, 4], ps[pp, 5] = lox, loy, loz
+                ps[pp, 6], ps[pp, 7], ps[pp, 8] = hix, hiy, hiz
+                px, py, pz = map_point(p, o, px, py, pz)
+                cx, cy, cz, ex, ey, ez = map_box(p, o, lox, loy, loz, hix, hiy, hiz)
                 lox, loy, loz = cx - ex, cy - ey, cz - ez
                 hix, hiy, hiz = cx + ex, cy + ey, cz + ez
             elif kind == K_WARP:  # the query map moves points by at most stretch * distance
                 cx, cy, cz = 0.5 * (lox + hix), 0.5 * (loy + hiy), 0.5 * (loz + hiz)
                 ex, ey, ez = 0.5 * (hix - lox), 0.5 * (hiy - loy), 0.5 * (hiz - loz)
                 reach = lips[i] * math.sqrt(ex * ex + ey * ey + ez * ez)
-                wx, wy, wz = apply_warp(op, params, o, cx, cy, cz, vs, 0, 0)
+                wx, wy, wz = apply_warp(op, p, o, cx, cy, cz, ps, 0, 0)
                 lox, loy, loz = wx - reach, wy - reach, wz - reach
                 hix, hiy, hiz = wx + reach, wy + reach, wz + reach
+                if values:
+                    px, py, pz = apply_warp(op, p, o, px, py, pz, ps, 0, 0)
             i += 1
         elif kind == K_POPPT:
-            vs[sp - 1, 0] *= lips[i]
-            lox, loy, loz = vs[pp, 1], vs[pp, 2], vs[pp, 3]
-            hix, hiy, hiz = vs[pp, 4], vs[pp, 5], vs[pp, 6]
+            ps[sp - 1, BOUND] *= lips[i]
+            px, py, pz = ps[pp, 0], ps[pp, 1], ps[pp, 2]
+            lox, loy, loz = ps[pp, 3], ps[pp, 4], ps[pp, 5]
+            hix, hiy, hiz = ps[pp, 6], ps[pp, 7], ps[pp, 8]
             pp -= 1
             i += 1
         elif kind == K_PAINT:
             i += 1
         else:  # K_ZERO
             vs[sp, 0] = 0.0
+            ps[sp, BOUND] = 0.0
             sp += 1
             i += 1
-    return vs[0, 0]
+    return vs[0, 0], ps[0, BOUND]
 
 
 @kernel
-def lipschitz_box(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, vs):
+def lipschitz_box(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, vs, ps):
     """A bound on |grad f| over the box [lo, hi] (world coordinates): the tree's Lipschitz rules
     (sum at blends, max at CSG) over only the primitives whose boxes meet it, each with its
     distance-aware bound; through a warp the box is carried into the warp's child frame (as a
-    cube around the warped centre, grown by the warp's stretch) and the result scaled back.
-    Uses vs[:, 0] as the value stack and vs[:, 1:7] to save regions across warps."""
-    return _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, False, 0.0, 0.0,
-                      0.0, 0.0, 0.0, 0.0, 0.0, vs)
+    cube around the warped centre, grown by the warp's stretch) and the result scaled back."""
+    return _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, False, False,
+                      0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, vs, ps)[1]
 
 
 @kernel
-def lipschitz_segment(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, length, vs):
-    """A bound on |df/dt| along the segment o + t d, 0 <= t <= length (d a unit vector): the
-    bound of ``lipschitz_box`` over the segment's box, except that primitives with a directional
-    bound (point primitives, outside warps) take it instead (never larger, and small where the
-    segment passes a primitive sideways, so grazing rays take long steps)."""
+def bound_box_at(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, x, y, z, vs, ps):
+    """(The field at (x, y, z), a point of the box [lo, hi]; a bound on |grad f| over the box):
+    ``lipschitz_box``, where CSG operators drop the bounds of children that the field values
+    at the point show cannot set the result anywhere in the box."""
+    return _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, False, True,
+                      x, y, z, 0.0, 0.0, 0.0, 0.0, vs, ps)
+
+
+@kernel
+def lipschitz_segment(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, length, vs, ps):
+    """(The field at o; a bound on |df/dt| along the segment o + t d, 0 <= t <= length, d a unit
+    vector): :func:`bound_box_at` over the segment's box, except that primitives with a
+    directional bound (point primitives, outside warps) take it instead (never larger, and
+    small where the segment passes a primitive sideways, so grazing rays take long steps)."""
     bx, by, bz = ox + length * dx, oy + length * dy, oz + length * dz
     return _lipschitz(code, params, boxes, lips, min(ox, bx), min(oy, by), min(oz, bz),
-                      max(ox, bx), max(oy, by), max(oz, bz), True, ox, oy, oz, dx, dy, dz,
-                      length, vs)
+                      max(ox, bx), max(oy, by), max(oz, bz), True, True, ox, oy, oz, dx, dy, dz,
+                      length, vs, ps)
 
 
 @kernel(nrt=True, nogil=True)
@@ -331,9 +363,19 @@ def eval_range(start, stop, code, params, boxes, P, mode, depth, out_f, out_g, o
 
 
 @kernel(nrt=True, nogil=True)
+def bound_range(start, stop, code, params, boxes, lips, lo, hi, at, depth, out_f, out):
+    """``bound_box_at`` for boxes start..stop - 1 of (M, 3) lo, hi at their points ``at``."""
+    vs, ps = scratch(depth)
+    for m in range(start, stop):
+        out_f[m], out[m] = bound_box_at(code, params, boxes, lips, lo[m, 0], lo[m, 1], lo[m, 2],
+                                        hi[m, 0], hi[m, 1], hi[m, 2], at[m, 0], at[m, 1],
+                                        at[m, 2], vs, ps)
+
+
+@kernel(nrt=True, nogil=True)
 def lipschitz_range(start, stop, code, params, boxes, lips, lo, hi, depth, out):
     """``lipschitz_box`` for boxes start..stop - 1 of (M, 3) lo, hi."""
-    vs, _ = scratch(depth)
+    vs, ps = scratch(depth)
     for m in range(start, stop):
         out[m] = lipschitz_box(code, params, boxes, lips, lo[m, 0], lo[m, 1], lo[m, 2],
-                               hi[m, 0], hi[m, 1], hi[m, 2], vs)
+                               hi[m, 0], hi[m, 1], hi[m, 2], vs, ps)

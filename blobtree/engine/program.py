@@ -144,6 +144,21 @@ class Program:
                      lo, hi, self.depth, out)
         return out
 
+    def bound_at(self, lo: np.ndarray, hi: np.ndarray,
+                 at: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Per box (M, 3) corners and a point ``at`` (M, 3) of each: the field at the point and a
+        bound on |grad f| over the box, which the field values let CSG operators tighten (a
+        child that cannot set the result anywhere in the box adds nothing to it)."""
+        lo, hi, at = (np.ascontiguousarray(a, dtype=np.float64).reshape(-1, 3)
+                      for a in (lo, hi, at))
+        if not len(lo) == len(hi) == len(at):
+            raise ValueError(f"lo, hi and at must hold as many points, got {len(lo)}, "
+                             f"{len(hi)} and {len(at)}")
+        f, out = np.empty(len(lo)), np.empty(len(lo))
+        parallel_for(K.bound_range, len(lo), self.code, self.params, self.boxes, self.lips,
+                     lo, hi, at, self.depth, f, out)
+        return f, out
+
 
 class _Emitter:
     """Emits a tree's instructions in postfix order (see the module docstring for the layout)."""

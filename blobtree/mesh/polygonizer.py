@@ -2,7 +2,8 @@
 
 1. **Cull** (:func:`_cull`).  An octree of boxes down to ``FINE`` cells; a box is dropped when
    the engine's Lipschitz bound L over it proves the 0.5 iso-surface cannot cross it,
-   ``|f(centre) - 0.5| > L * half_diagonal`` (L is 0 where the box misses every node box).
+   ``|f(centre) - 0.5| > L * half_diagonal`` (L is 0 where the box misses every node box; the
+   field values at the centre let CSG operators leave out a child that cannot win there).
 2. **Sample** (:func:`_sample`).  The kept boxes at their corners and centres, then whole boxes
    from those showing both sides of 0.5 outwards across crossed faces.  Work therefore grows
    with the surface (about 4x per doubling of the resolution), not with the volume.
@@ -78,7 +79,7 @@ def polygonize(
     budget: a job whose estimated output exceeds it is refused with ValueError before sampling.
     Features thinner than about two cells may be lost (see docs/meshing.md).
     ``tree`` may also be any evaluator with ``bounds``, ``field``, ``evaluate`` and
-    ``lipschitz`` as ``Program`` has them (``blobtree.distributed`` passes one whose batches run on
+    ``bound_at`` as ``Program`` has them (``blobtree.distributed`` passes one whose batches run on
     a Dask cluster; the mesh is the same).
     """
     from tqdm.auto import tqdm
@@ -214,9 +215,12 @@ def _cull(prog, grid: _Grid, budget: int):
     parent_lip = None
     while True:
         lo, hi, centre, half_diag = box_geometry(origins, size, grid.origin, grid.h, limit)
-        # the smallest boxes reuse their parent's bound: it holds over them too
-        lip = parent_lip if size == FINE else prog.lipschitz(lo, hi)
-        fc = prog.field(centre) if len(origins) else np.zeros(0)  # unclipped, as L bounds it
+        # the smallest boxes reuse their parent's bound: it holds over them too.  (The field
+        # at the centre is unclipped, as L bounds it.)
+        if size == FINE:
+            lip, fc = parent_lip, prog.field(centre) if len(origins) else np.zeros(0)
+        else:
+            fc, lip = prog.bound_at(lo, hi, centre)
         keep = keep_boxes(lip, fc, half_diag, lo, hi, grid.lo, grid.hi, grid.clip, ISO)
         origins, kept_value, kept_lip = origins[keep], fc[keep], lip[keep]
         if size > FINE:

@@ -108,14 +108,25 @@ class PrimitiveKernels:
     along: Callable | None = None
 
 
+#: Column of the engine's point scratch that holds a value-stack row's gradient bound over a
+#: region (read and written by operators' ``bound`` kernels).
+BOUND = 9
+
+
 @dataclass(frozen=True)
 class OperatorKernels:
     """``combine(vs, b, k, p, o, mode)``: the operator over value-stack rows b .. b + k - 1 (field,
     gradient, colour; see engine.interp), result in row b; optional ``rows(vs, b, k, p, o, nb)``:
-    field only over the rows of a batch of nb points (engine.batch), vectorisable."""
+    field only over the rows of a batch of nb points (engine.batch), vectorisable; optional
+    ``bound(vs, ps, b, k, p, o, reach)``: a bound on |grad f| over a region of diameter
+    ``reach`` into ps[b, BOUND], from the children's fields at a point of the region
+    (vs[b + j, 0]) and their bounds over it (ps[b + j, BOUND]); without it the ``LIPSCHITZ``
+    rule applies.  A CSG operator uses the values to drop the bound of a child that cannot
+    set the result anywhere in the region."""
 
     combine: Callable
     rows: Callable | None = None
+    bound: Callable | None = None
 
 
 @dataclass(frozen=True)

@@ -10,13 +10,14 @@ the max over the groups (and over children in no group, alone).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
 
 from ..checks import Number
 from ..jit import kernel
-from .base import Node, Operator, OperatorKernels, pick, register, weighted_color
+from .base import BOUND, Node, Operator, OperatorKernels, pick, register, weighted_color
 from .params import LARGEST_N, Groups, Pairs, Param
 
 
@@ -117,6 +118,62 @@ def _group_gradient_colour(vs, b, p, q, f):
 
 
 @kernel
+def _candidate(vs, ps, b, p, q, size, n, reach, kind):
+    """One candidate of the max over the region (kind 0: pair at p[q:q + 2], 1: group with its
+    exponent n, size and members at p[q:q + size], 2: the single child at p[q]): its lowest
+    and highest field there (from each member's f +- L reach) and its gradient bound."""
+    low = high = bound = top = 0.0
+    for i in range(size):
+        j = b + int(p[q + i])
+        lo_j, hi_j = vs[j, 0] - ps[j, BOUND] * reach, vs[j, 0] + ps[j, BOUND] * reach
+        top = max(top, lo_j)
+        low += lo_j
+        high += max(hi_j, 0.0)
+        bound += ps[j, BOUND]
+    if kind == 1 and n != 1.0:  # super-elliptic: at least its largest member, weights as Eq. 4's
+        low = top
+        if top > 0.0:
+            bound = 0.0
+            for i in range(size):
+                j = b + int(p[q + i])
+                hi_j = max(vs[j, 0] + ps[j, BOUND] * reach, 0.0)
+                bound += min(1.0, (hi_j / top) ** (n - 1.0)) * ps[j, BOUND]
+    return low, high, bound
+
+
+@kernel
+def controlled_bound(vs, ps, b, k, p, o, reach):
+    """The field is a max over candidates (pairs, groups, single children): a candidate whose
+    highest stays below another's lowest over the region never wins there, and the bound is
+    the largest of the others' (each the sum of its members', Eq. 4's weights for a group)."""
+    best_low = -math.inf
+    for rnd in range(2):  # first the best lowest, then the bound over the candidates left
+        bound = 0.0
+        npairs = int(p[o])
+        for q in range(npairs):
+            lo, hi, lip = _candidate(vs, ps, b, p, o + 1 + 2 * q, 2, 1.0, reach, 0)
+            best_low = max(best_low, lo)
+            if rnd == 1 and hi >= best_low:
+                bound = max(bound, lip)
+        q = o + 1 + 2 * npairs
+        ngroups = int(p[q])
+        q += 1
+        for _ in range(ngroups):
+            size = int(p[q + 1])
+            lo, hi, lip = _candidate(vs, ps, b, p, q + 2, size, p[q], reach, 1)
+            best_low = max(best_low, lo)
+            if rnd == 1 and hi >= best_low:
+                bound = max(bound, lip)
+            q += 2 + size
+        for i in range(int(p[q])):
+            lo, hi, lip = _candidate(vs, ps, b, p, q + 1 + i, 1, 1.0, reach, 2)
+            best_low = max(best_low, lo)
+            if rnd == 1 and hi >= best_low:
+                bound = max(bound, lip)
+    ps[b, BOUND] = bound
+
+
+@kernel
 def controlled_rows(vs, b, k, p, o, nb):
     npairs = int(p[o])
     for m in range(nb):
@@ -152,7 +209,8 @@ class ControlledBlend(Operator):
               Param("n", Number(lo=1.0, hi=LARGEST_N, sample=(1.0, 8.0)), 1.0,
                     "super-elliptic exponent of the groups that give none: 1 = sum", since=3))
     ZERO_FIRST = ZERO_REST = "keep"
-    KERNELS = OperatorKernels(combine=controlled_combine, rows=controlled_rows)
+    KERNELS = OperatorKernels(combine=controlled_combine, rows=controlled_rows,
+                              bound=controlled_bound)
 
     def _check(self):
         m = len(self.children)

@@ -7,7 +7,7 @@ import numpy as np
 
 from ..checks import Number
 from ..jit import kernel
-from .base import ISO, Node, Operator, OperatorKernels, register
+from .base import BOUND, ISO, Node, Operator, OperatorKernels, register
 from .params import Param
 
 
@@ -45,6 +45,26 @@ def difference_combine(vs, b, k, p, o, mode):
 
 
 @kernel
+def difference_bound(vs, ps, b, k, p, o, reach):
+    """Left to right, as :func:`difference_combine`: over the region the running min f and the
+    next term y = 1 - f_j stay within their values +- L reach; a term that stays at least the
+    rounding band above f leaves f as it is (its bound is dropped), one that stays that far
+    below replaces it (so does its bound), otherwise the bound is the larger of the two."""
+    r = p[o]
+    f, bound = vs[b, 0], ps[b, BOUND]
+    for j in range(b + 1, b + k):
+        y, bound_y = 1.0 - vs[j, 0], ps[j, BOUND]
+        if y - bound_y * reach >= f + bound * reach + r:
+            pass
+        elif f - bound * reach >= y + bound_y * reach + r:
+            bound = bound_y
+        else:
+            bound = max(bound, bound_y)
+        f = rounded_min(f, y, r)[0]
+    ps[b, BOUND] = bound
+
+
+@kernel
 def difference_rows(vs, b, k, p, o, nb):
     r = p[o]
     for j in range(b + 1, b + k):
@@ -77,7 +97,8 @@ class Difference(Operator):
                     since=4),)
     ZERO_FIRST, ZERO_REST = "kill", "keep"
     LIPSCHITZ = "max"
-    KERNELS = OperatorKernels(combine=difference_combine, rows=difference_rows)
+    KERNELS = OperatorKernels(combine=difference_combine, rows=difference_rows,
+                              bound=difference_bound)
 
     def op_params(self):
         return [self.smooth]

@@ -16,6 +16,11 @@ def intersection_combine(vs, b, k, p, o, mode):
 
 
 @kernel
+def intersection_bound(vs, ps, b, k, p, o, reach):
+    kmath.select_bound(vs, ps, b, k, reach, False)
+
+
+@kernel
 def intersection_rows(vs, b, k, p, o, nb):
     for j in range(b + 1, b + k):
         for m in range(nb):
@@ -30,7 +35,8 @@ class Intersection(Operator):
     ZERO_FIRST = ZERO_REST = "kill"
     LIPSCHITZ = "max"
     IDEMPOTENT = True
-    KERNELS = OperatorKernels(combine=intersection_combine, rows=intersection_rows)
+    KERNELS = OperatorKernels(combine=intersection_combine, rows=intersection_rows,
+                              bound=intersection_bound)
 
     def _ref(self, P, look=None):
         f, g, c = self._refs(P, look)

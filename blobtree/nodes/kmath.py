@@ -12,6 +12,7 @@ import numpy as np
 
 from ..fields import SLOPE_BY_ID, falloff, falloff_ds, falloff_peak
 from ..jit import kernel
+from .base import BOUND
 
 fo = kernel(falloff)
 fo_ds = kernel(falloff_ds)
@@ -157,6 +158,25 @@ def select(vs, b, k, largest):
             best = j
     if best != b:
         copy_entry(vs, best, b, 1.0)
+
+
+@kernel
+def select_bound(vs, ps, b, k, reach, largest):
+    """Union's and intersection's bound over a region of diameter reach: child j stays within
+    f_j +- L_j reach there, so a child whose highest stays below another's lowest (union; the
+    reverse for intersection) never wins in the region and its bound L_j is dropped."""
+    edge = -math.inf if largest else math.inf  # the best of the children's worst cases
+    for j in range(b, b + k):
+        if largest:
+            edge = max(edge, vs[j, 0] - ps[j, BOUND] * reach)
+        else:
+            edge = min(edge, vs[j, 0] + ps[j, BOUND] * reach)
+    bound = 0.0
+    for j in range(b, b + k):
+        reach_j = ps[j, BOUND] * reach
+        if (vs[j, 0] + reach_j >= edge) if largest else (vs[j, 0] - reach_j <= edge):
+            bound = max(bound, ps[j, BOUND])
+    ps[b, BOUND] = bound
 
 
 @kernel

@@ -15,6 +15,11 @@ def union_combine(vs, b, k, p, o, mode):
 
 
 @kernel
+def union_bound(vs, ps, b, k, p, o, reach):
+    kmath.select_bound(vs, ps, b, k, reach, True)
+
+
+@kernel
 def union_rows(vs, b, k, p, o, nb):
     for j in range(b + 1, b + k):
         for m in range(nb):
@@ -29,7 +34,8 @@ class Union(Operator):
     LIPSCHITZ = "max"
     ASSOCIATIVE = True
     IDEMPOTENT = True
-    KERNELS = OperatorKernels(combine=union_combine, rows=union_rows)
+    KERNELS = OperatorKernels(combine=union_combine, rows=union_rows,
+                              bound=union_bound)
 
     def _ref(self, P, look=None):
         f, g, c = self._refs(P, look)

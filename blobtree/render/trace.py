@@ -3,7 +3,8 @@
 Along a ray p(t) = o + t d the tracer keeps a candidate segment [t, t + delta].  The engine bounds
 the field's derivative along the segment (``interp.lipschitz_segment``: the gradient bound over
 the segment's box, and for point primitives the directional bound, small where the ray passes a
-primitive sideways).  With that local Lipschitz bound L, the field cannot reach the iso-value 0.5
+primitive sideways; in the same pass it evaluates the field at the segment's start, which lets
+CSG operators leave out children that cannot set the field on the segment).  With that local Lipschitz bound L, the field cannot reach the iso-value 0.5
 before t + (0.5 - f(t)) / L, so that step is safe, and so is every further step of that kind
 while it stays inside the segment: one bound (the costlier half of a step) serves several field
 evaluations.  The next candidate segment is ``SEGMENT_GROWTH`` times the one just crossed.  Where
@@ -106,27 +107,38 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
     the segment (the bound is loose there): then a shorter segment takes a new bound.
     """
     t = t0
-    f = interp.eval_point(code, params, boxes, ox + t * dx, oy + t * dy, oz + t * dz, 0,
-                           vstack, pstack) - ISO
+    delta = delta0
+    f, lam = interp.lipschitz_segment(code, params, boxes, lips, ox + t * dx, oy + t * dy,
+                                      oz + t * dz, dx, dy, dz, min(delta, t1 - t), vstack,
+                                      pstack)
+    f -= ISO
     if f >= 0.0:
         return t, 0.0, t
     low = f
     rise = 0.0
     t_peak = t
-    delta = delta0
     while t < t1:
         ts = t
         te = min(t + delta, t1)
-        lam = interp.lipschitz_segment(code, params, boxes, lips, ox + t * dx, oy + t * dy,
-                                        oz + t * dz, dx, dy, dz, te - t, vstack)
         while True:  # lam bounds |df/dt| over the whole segment: step on inside it
             step = te - t
             if lam > 0.0:
                 step = min(step, -f / lam)
             eps = eps_abs + eps_rel * t
             tn = min(t + max(step, eps), t1)
-            fn = interp.eval_point(code, params, boxes, ox + tn * dx, oy + tn * dy,
-                                    oz + tn * dz, 0, vstack, pstack) - ISO
+            last = tn - t
+            # a new segment starts at tn once this one is crossed, or where the bound is
+            # loose (its steps short next to what is left of it): its bound comes with f(tn)
+            new_segment = tn >= te or te - tn > REBOUND * last
+            if new_segment:
+                delta = SEGMENT_GROWTH * (tn - ts) if tn >= te else GROWTH * last
+                fn, lam = interp.lipschitz_segment(code, params, boxes, lips, ox + tn * dx,
+                                                   oy + tn * dy, oz + tn * dz, dx, dy, dz,
+                                                   min(delta, t1 - tn), vstack, pstack)
+            else:
+                fn = interp.eval_point(code, params, boxes, ox + tn * dx, oy + tn * dy,
+                                       oz + tn * dz, 0, vstack, pstack)
+            fn -= ISO
             if fn >= 0.0:
                 t_hit = _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, t, f, tn, fn,
                                 REFINE_TOL * eps, vstack, pstack)
@@ -135,14 +147,9 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
             if fn - low > rise:
                 rise = fn - low
                 t_peak = tn
-            last = tn - t
             t = tn
             f = fn
-            if t >= te:
-                delta = SEGMENT_GROWTH * (t - ts)
-                break
-            if te - t > REBOUND * last:  # the bound is loose here: take one over a shorter stretch
-                delta = GROWTH * last
+            if new_segment:
                 break
     return -1.0, rise, t_peak
 
@@ -186,26 +193,20 @@ def march_cone(code, params, boxes, lips, ex, ey, ez, ax, ay, az, tan_a, t, t1, 
     depth (its own parameter is never less than its axis depth).
     """
     delta = 0.05 * (t1 - t) + 1e-12
-    f = 0.0
-    have_f = False  # the field at the current axis point is evaluated only when needed
     while t < t1:
         te = min(t + delta, t1)
         r = te * tan_a
         px, py, pz = ex + t * ax, ey + t * ay, ez + t * az
         qx, qy, qz = ex + te * ax, ey + te * ay, ez + te * az
-        lam = interp.lipschitz_box(code, params, boxes, lips, min(px, qx) - r, min(py, qy) - r,
-                                    min(pz, qz) - r, max(px, qx) + r, max(py, qy) + r,
-                                    max(pz, qz) + r, vstack)
+        f, lam = interp.bound_box_at(code, params, boxes, lips, min(px, qx) - r, min(py, qy) - r,
+                                     min(pz, qz) - r, max(px, qx) + r, max(py, qy) + r,
+                                     max(pz, qz) + r, px, py, pz, vstack, pstack)
         step = te - t
         if lam > 0.0:
-            if not have_f:
-                f = interp.eval_point(code, params, boxes, px, py, pz, 0, vstack, pstack) - ISO
-                have_f = True
-            step = min(step, (-f / lam - t * tan_a) / (1.0 + tan_a))
+            step = min(step, ((ISO - f) / lam - t * tan_a) / (1.0 + tan_a))
             if step < CONE_STOP * t * tan_a:
                 return t
         t += step
-        have_f = False
         delta = GROWTH * step
     return np.inf
 
