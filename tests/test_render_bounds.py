@@ -49,6 +49,7 @@ _B = bt.Point(radius=0.6, center=(0.55, 0.1, 0.0))
 @pytest.mark.parametrize("tree", [
     bt.union(_A, _B), bt.intersection(_A, _B), bt.difference(_A, _B),
     bt.difference(_A, _B, smooth=0.1), bt.super_blend(_A, _B, n=400.0),
+    bt.controlled_blend([_A, _B, _A.scale(0.5)], pairs=[(0, 2)], groups=[((1, 2), 4.0)]),
 ])
 def test_csg_bound_drops_the_child_that_cannot_set_the_field(tree):
     """Over small boxes, the bound that knows the field at a point of the box (the ray
