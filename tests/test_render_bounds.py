@@ -61,15 +61,25 @@ def test_csg_bound_drops_the_child_that_cannot_set_the_field(tree):
     code, params, boxes, lips = prog.arrays
     vs, ps = K.scratch(prog.depth)
     rng = np.random.default_rng(7)
-    lower = 0
+    lower = further = 0
     both = rng.uniform(-1.0, 1.2, (20000, 3))  # box centres where both children have a field
     both = both[(_A.field(both) > 0.0) & (_B.field(both) > 0.0)][:300]
     for c in both:
         e = rng.uniform(0.002, 0.05, 3)
         rule = K.lipschitz_box(code, params, boxes, lips, *(c - e), *(c + e), vs, ps)
-        f, bound = K.bound_box_at(code, params, boxes, lips, *(c - e), *(c + e), *c, vs, ps)
+        f, bound, below = K.bound_box_at(code, params, boxes, lips, *(c - e), *(c + e), *c, vs,
+                                         ps)
         P = c + rng.uniform(-1.0, 1.0, (400, 3)) * e
-        assert np.linalg.norm(prog.gradient(P), axis=1).max() <= bound * (1 + 1e-9) + 1e-12
+        fp, gp, _ = prog.evaluate(P)
+        assert np.linalg.norm(gp, axis=1).max() <= bound * (1 + 1e-9) + 1e-12
         assert bound <= rule
         lower += bound < 0.9 * rule
+        # below 0.5 as far as it says, and further than the bound alone proves where a term
+        # of a min (or every child of a max) stays below on its own
+        assert np.all(fp[np.linalg.norm(P - c, axis=1) < below * (1 - 1e-9)] <= 0.5 + 1e-12)
+        plain = (0.5 - f) / bound if f < 0.5 and bound > 0 else (np.inf if f < 0.5 else 0.0)
+        assert below >= plain * (1 - 1e-12)
+        further += below > 1.1 * plain
     assert lower >= 20  # (30-133 of the 300 boxes, by operator)
+    if not isinstance(tree, bt.SuperBlend | bt.ControlledBlend):
+        assert further >= 10

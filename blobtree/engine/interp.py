@@ -20,8 +20,8 @@ import math
 import numpy as np
 
 from ..jit import kernel
-from ..nodes.base import BOUND, FALLOFF
-from ..nodes.kmath import fo, fo_ds, map_box, map_point, texel
+from ..nodes.base import ABOVE, BELOW, BOUND, FALLOFF
+from ..nodes.kmath import fo, fo_ds, map_box, map_point, safe_distances, texel
 from .dispatch import (
     K_BOX,
     K_OPERATOR,
@@ -229,7 +229,9 @@ def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, val
     it along the segment o + t d, 0 <= t <= length inside the box; with ``values``, the field at
     o (which must lie in the box) is evaluated along, and operators with a ``bound`` kernel use
     their children's values to drop the bounds of children that cannot set the result anywhere
-    in the region (a CSG operator's loser).  Returns (the field at o, or 0; the bound).
+    in the region (a CSG operator's loser).  Returns (the field at o, or 0; the bound; how
+    far from o the field surely stays below ISO: where the value and the bound say so, or
+    further where a min's term or all of a max's children do).
 
     Stacks: fields in vs[:, 0], bounds in ps[:, BOUND]; ps[pp, 0:3] saves the point and
     ps[pp, 3:9] the region across warps."""
@@ -251,6 +253,7 @@ def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, val
                                             hix, hiy, hiz, ox, oy, oz, dx, dy, dz, length)
                 if values and not outside(boxes, i, px, py, pz):
                     _primitive(op, code, i, p, code[i, 1], px, py, pz, 0, vs, sp)
+            ps[sp, BELOW], ps[sp, ABOVE] = safe_distances(vs[sp, 0], ps[sp, BOUND])
             sp += 1
             i += 1
         elif kind == K_OPERATOR:
@@ -267,14 +270,16 @@ def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, val
                     for j in range(b, sp):
                         acc = max(acc, ps[j, BOUND])
                 ps[b, BOUND] = acc
+                ps[b, BELOW] = ps[b, ABOVE] = 0.0
             if values:
                 combine(op, vs, b, k, p, o, 0)
+                below, above = safe_distances(vs[b, 0], ps[b, BOUND])
+                ps[b, BELOW], ps[b, ABOVE] = max(ps[b, BELOW], below), max(ps[b, ABOVE], above)
             sp = b + 1
             i += 1
         elif kind == K_BOX or kind == K_PUSHPT or kind == K_WARP:
             if misses(boxes, i, lox, loy, loz, hix, hiy, hiz):
-                vs[sp, 0] = 0.0
-                ps[sp, BOUND] = 0.0
+                _no_field(vs, ps, sp)
                 sp += 1
                 i = code[i, 2]
                 continue
@@ -298,8 +303,10 @@ def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, val
                 if values:
                     px, py, pz = apply_warp(op, p, o, px, py, pz, ps, 0, 0)
             i += 1
-        elif kind == K_POPPT:
+        elif kind == K_POPPT:  # frame distances are at most lips[i] times the outer ones
             ps[sp - 1, BOUND] *= lips[i]
+            ps[sp - 1, BELOW] /= lips[i]
+            ps[sp - 1, ABOVE] /= lips[i]
             px, py, pz = ps[pp, 0], ps[pp, 1], ps[pp, 2]
             lox, loy, loz = ps[pp, 3], ps[pp, 4], ps[pp, 5]
             hix, hiy, hiz = ps[pp, 6], ps[pp, 7], ps[pp, 8]
@@ -308,11 +315,19 @@ def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, val
         elif kind == K_PAINT:
             i += 1
         else:  # K_ZERO
-            vs[sp, 0] = 0.0
-            ps[sp, BOUND] = 0.0
+            _no_field(vs, ps, sp)
             sp += 1
             i += 1
-    return vs[0, 0], ps[0, BOUND]
+    return vs[0, 0], ps[0, BOUND], ps[0, BELOW]
+
+
+@kernel
+def _no_field(vs, ps, sp):
+    """Row sp of ``_lipschitz``'s stacks for a subtree with no field in the region."""
+    vs[sp, 0] = 0.0
+    ps[sp, BOUND] = 0.0
+    ps[sp, BELOW] = math.inf
+    ps[sp, ABOVE] = 0.0
 
 
 @kernel
@@ -327,9 +342,10 @@ def lipschitz_box(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, vs, p
 
 @kernel
 def bound_box_at(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, x, y, z, vs, ps):
-    """(The field at (x, y, z), a point of the box [lo, hi]; a bound on |grad f| over the box):
-    ``lipschitz_box``, where CSG operators drop the bounds of children that the field values
-    at the point show cannot set the result anywhere in the box."""
+    """(The field at (x, y, z), a point of the box [lo, hi]; a bound on |grad f| over the box;
+    how far from the point within the box the field surely stays below ISO): ``lipschitz_box``,
+    where CSG operators drop the bounds of children that the field values at the point show
+    cannot set the result anywhere in the box."""
     return _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, False, True,
                       x, y, z, 0.0, 0.0, 0.0, 0.0, vs, ps)
 
@@ -337,7 +353,8 @@ def bound_box_at(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, x, y, 
 @kernel
 def lipschitz_segment(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, length, vs, ps):
     """(The field at o; a bound on |df/dt| along the segment o + t d, 0 <= t <= length, d a unit
-    vector): :func:`bound_box_at` over the segment's box, except that primitives with a
+    vector; how far along it the field surely stays below ISO): :func:`bound_box_at` over the
+    segment's box, except that primitives with a
     directional bound (point primitives, outside warps) take it instead (never larger, and
     small where the segment passes a primitive sideways, so grazing rays take long steps)."""
     bx, by, bz = ox + length * dx, oy + length * dy, oz + length * dz
@@ -367,9 +384,9 @@ def bound_range(start, stop, code, params, boxes, lips, lo, hi, at, depth, out_f
     """``bound_box_at`` for boxes start..stop - 1 of (M, 3) lo, hi at their points ``at``."""
     vs, ps = scratch(depth)
     for m in range(start, stop):
-        out_f[m], out[m] = bound_box_at(code, params, boxes, lips, lo[m, 0], lo[m, 1], lo[m, 2],
-                                        hi[m, 0], hi[m, 1], hi[m, 2], at[m, 0], at[m, 1],
-                                        at[m, 2], vs, ps)
+        out_f[m], out[m], _ = bound_box_at(code, params, boxes, lips, lo[m, 0], lo[m, 1],
+                                           lo[m, 2], hi[m, 0], hi[m, 1], hi[m, 2], at[m, 0],
+                                           at[m, 1], at[m, 2], vs, ps)
 
 
 @kernel(nrt=True, nogil=True)

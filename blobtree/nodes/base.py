@@ -108,9 +108,10 @@ class PrimitiveKernels:
     along: Callable | None = None
 
 
-#: Column of the engine's point scratch that holds a value-stack row's gradient bound over a
-#: region (read and written by operators' ``bound`` kernels).
-BOUND = 9
+#: Columns of the engine's point scratch that hold, for a value-stack row, a bound on its
+#: gradient over a region, and distances from the region's point over which its field surely
+#: stays below / above ISO (read and written by operators' ``bound`` kernels).
+BOUND, BELOW, ABOVE = 9, 10, 11
 
 
 @dataclass(frozen=True)
@@ -122,7 +123,9 @@ class OperatorKernels:
     ``reach`` into ps[b, BOUND], from the children's fields at a point of the region
     (vs[b + j, 0]) and their bounds over it (ps[b + j, BOUND]); without it the ``LIPSCHITZ``
     rule applies.  A CSG operator uses the values to drop the bound of a child that cannot
-    set the result anywhere in the region."""
+    set the result anywhere in the region, and sets ps[b, BELOW] / ps[b, ABOVE] from its
+    children's (a min stays below ISO as far as any of its terms does); the engine takes the
+    larger of those and the distances its own value and bound give."""
 
     combine: Callable
     rows: Callable | None = None

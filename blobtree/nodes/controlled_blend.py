@@ -17,7 +17,17 @@ import numpy as np
 
 from ..checks import Number
 from ..jit import kernel
-from .base import BOUND, Node, Operator, OperatorKernels, pick, register, weighted_color
+from .base import (
+    ABOVE,
+    BELOW,
+    BOUND,
+    Node,
+    Operator,
+    OperatorKernels,
+    pick,
+    register,
+    weighted_color,
+)
 from .params import LARGEST_N, Groups, Pairs, Param
 
 
@@ -171,6 +181,7 @@ def controlled_bound(vs, ps, b, k, p, o, reach):
             if rnd == 1 and hi >= best_low:
                 bound = max(bound, lip)
     ps[b, BOUND] = bound
+    ps[b, BELOW] = ps[b, ABOVE] = 0.0  # (the engine's own, from the value and bound)
 
 
 @kernel

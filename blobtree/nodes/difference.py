@@ -7,7 +7,7 @@ import numpy as np
 
 from ..checks import Number
 from ..jit import kernel
-from .base import BOUND, ISO, Node, Operator, OperatorKernels, register
+from .base import ABOVE, BELOW, BOUND, ISO, Node, Operator, OperatorKernels, register
 from .params import Param
 
 
@@ -49,9 +49,11 @@ def difference_bound(vs, ps, b, k, p, o, reach):
     """Left to right, as :func:`difference_combine`: over the region the running min f and the
     next term y = 1 - f_j stay within their values +- L reach; a term that stays at least the
     rounding band above f leaves f as it is (its bound is dropped), one that stays that far
-    below replaces it (so does its bound), otherwise the bound is the larger of the two."""
+    below replaces it (so does its bound), otherwise the bound is the larger of the two.  The
+    result stays below ISO as far as any term does."""
     r = p[o]
     f, bound = vs[b, 0], ps[b, BOUND]
+    below, above = ps[b, BELOW], ps[b, ABOVE]
     for j in range(b + 1, b + k):
         y, bound_y = 1.0 - vs[j, 0], ps[j, BOUND]
         if y - bound_y * reach >= f + bound * reach + r:
@@ -61,7 +63,11 @@ def difference_bound(vs, ps, b, k, p, o, reach):
         else:
             bound = max(bound, bound_y)
         f = rounded_min(f, y, r)[0]
+        # 1 - f_j stays below ISO as far as f_j stays above it; the (rounded) min stays below
+        # as far as any term does, above as far as all do (sharp only: rounding lowers it)
+        below, above = max(below, ps[j, ABOVE]), min(above, ps[j, BELOW])
     ps[b, BOUND] = bound
+    ps[b, BELOW], ps[b, ABOVE] = below, above if r == 0.0 else 0.0
 
 
 @kernel

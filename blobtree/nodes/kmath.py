@@ -12,7 +12,7 @@ import numpy as np
 
 from ..fields import SLOPE_BY_ID, falloff, falloff_ds, falloff_peak
 from ..jit import kernel
-from .base import BOUND
+from .base import ABOVE, BELOW, BOUND, ISO
 
 fo = kernel(falloff)
 fo_ds = kernel(falloff_ds)
@@ -161,22 +161,40 @@ def select(vs, b, k, largest):
 
 
 @kernel
+def safe_distances(f, bound):
+    """How far from a point a field surely stays below and above ISO, from its value f there
+    and a bound on its gradient: (ISO - f) / bound on the side f is on (infinite for a bound
+    of 0), 0 on the other."""
+    if f == ISO:
+        return 0.0, 0.0
+    gap = abs(f - ISO) / bound if bound > 0.0 else math.inf
+    return (gap, 0.0) if f < ISO else (0.0, gap)
+
+
+@kernel
 def select_bound(vs, ps, b, k, reach, largest):
     """Union's and intersection's bound over a region of diameter reach: child j stays within
     f_j +- L_j reach there, so a child whose highest stays below another's lowest (union; the
-    reverse for intersection) never wins in the region and its bound L_j is dropped."""
+    reverse for intersection) never wins in the region and its bound L_j is dropped.  A max
+    stays below ISO as far as all its children do and above as far as any does (a min the
+    reverse)."""
     edge = -math.inf if largest else math.inf  # the best of the children's worst cases
+    all_below = all_above = math.inf
+    any_below = any_above = 0.0
     for j in range(b, b + k):
         if largest:
             edge = max(edge, vs[j, 0] - ps[j, BOUND] * reach)
         else:
             edge = min(edge, vs[j, 0] + ps[j, BOUND] * reach)
+        all_below, any_below = min(all_below, ps[j, BELOW]), max(any_below, ps[j, BELOW])
+        all_above, any_above = min(all_above, ps[j, ABOVE]), max(any_above, ps[j, ABOVE])
     bound = 0.0
     for j in range(b, b + k):
         reach_j = ps[j, BOUND] * reach
         if (vs[j, 0] + reach_j >= edge) if largest else (vs[j, 0] - reach_j <= edge):
             bound = max(bound, ps[j, BOUND])
     ps[b, BOUND] = bound
+    ps[b, BELOW], ps[b, ABOVE] = (all_below, any_above) if largest else (any_below, all_above)
 
 
 @kernel

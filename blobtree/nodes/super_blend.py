@@ -6,7 +6,7 @@ import numpy as np
 
 from ..checks import Number
 from ..jit import kernel
-from .base import BOUND, Node, Operator, OperatorKernels, register, weighted_color
+from .base import ABOVE, BELOW, BOUND, Node, Operator, OperatorKernels, register, weighted_color
 from .params import LARGEST_N, Param
 
 
@@ -59,6 +59,7 @@ def super_bound(vs, ps, b, k, p, o, reach):
             w = min(1.0, (max(vs[j, 0] + ps[j, BOUND] * reach, 0.0) / low) ** (n - 1.0))
         bound += w * ps[j, BOUND]
     ps[b, BOUND] = bound
+    ps[b, BELOW] = ps[b, ABOVE] = 0.0  # (the engine's own, from the value and bound)
 
 
 @kernel

@@ -3,17 +3,19 @@
 Along a ray p(t) = o + t d the tracer keeps a candidate segment [t, t + delta].  The engine bounds
 the field's derivative along the segment (``interp.lipschitz_segment``: the gradient bound over
 the segment's box, and for point primitives the directional bound, small where the ray passes a
-primitive sideways; in the same pass it evaluates the field at the segment's start, which lets
-CSG operators leave out children that cannot set the field on the segment).  With that local Lipschitz bound L, the field cannot reach the iso-value 0.5
+primitive sideways).  With that local Lipschitz bound L, the field cannot reach the iso-value 0.5
 before t + (0.5 - f(t)) / L, so that step is safe, and so is every further step of that kind
 while it stays inside the segment: one bound (the costlier half of a step) serves several field
-evaluations.  The next candidate segment is ``SEGMENT_GROWTH`` times the one just crossed.  Where
-the support boxes miss the segment, L is 0 and the whole segment is skipped.  Steps never fall
-below ``eps`` (a feature thinner than eps along the ray may be skipped: eps is a fraction of a
-pixel for camera rays), and once a step lands inside (f >= 0.5) the root is refined by the
-Illinois variant of regula falsi, which keeps the root bracketed.  :func:`march_cone` applies the
-same bound to a whole cone of camera rays at once, so a block of pixels skips empty space
-together.
+evaluations.  The same pass evaluates the field at the segment's start, so CSG operators can
+leave out children that cannot set the field on the segment, and say how far it surely stays
+below 0.5 when that is further (a min stays below as long as any of its terms does: the air in
+a carved hole is far from the shell even where the carving's own field is steep).  The next
+candidate segment is ``SEGMENT_GROWTH`` times the one just crossed.  Where the support boxes
+miss the segment, L is 0 and the whole segment is skipped.  Steps never fall below ``eps`` (a
+feature thinner than eps along the ray may be skipped: eps is a fraction of a pixel for camera
+rays), and once a step lands inside (f >= 0.5) the root is refined by the Illinois variant of
+regula falsi, which keeps the root bracketed.  :func:`march_cone` applies the same bound to a
+whole cone of camera rays at once, so a block of pixels skips empty space together.
 
 All kernels take the program arrays ``code, params, boxes, lips`` of ``Program.arrays`` and the
 per-thread scratch of ``interp.scratch``.
@@ -108,9 +110,9 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
     """
     t = t0
     delta = delta0
-    f, lam = interp.lipschitz_segment(code, params, boxes, lips, ox + t * dx, oy + t * dy,
-                                      oz + t * dz, dx, dy, dz, min(delta, t1 - t), vstack,
-                                      pstack)
+    f, lam, below = interp.lipschitz_segment(code, params, boxes, lips, ox + t * dx, oy + t * dy,
+                                             oz + t * dz, dx, dy, dz, min(delta, t1 - t), vstack,
+                                             pstack)
     f -= ISO
     if f >= 0.0:
         return t, 0.0, t
@@ -122,8 +124,8 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
         te = min(t + delta, t1)
         while True:  # lam bounds |df/dt| over the whole segment: step on inside it
             step = te - t
-            if lam > 0.0:
-                step = min(step, -f / lam)
+            if lam > 0.0:  # (and the field stays below ISO up to ts + below)
+                step = min(step, max(-f / lam, ts + below - t))
             eps = eps_abs + eps_rel * t
             tn = min(t + max(step, eps), t1)
             last = tn - t
@@ -132,9 +134,10 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
             new_segment = tn >= te or te - tn > REBOUND * last
             if new_segment:
                 delta = SEGMENT_GROWTH * (tn - ts) if tn >= te else GROWTH * last
-                fn, lam = interp.lipschitz_segment(code, params, boxes, lips, ox + tn * dx,
-                                                   oy + tn * dy, oz + tn * dz, dx, dy, dz,
-                                                   min(delta, t1 - tn), vstack, pstack)
+                fn, lam, below = interp.lipschitz_segment(code, params, boxes, lips,
+                                                          ox + tn * dx, oy + tn * dy,
+                                                          oz + tn * dz, dx, dy, dz,
+                                                          min(delta, t1 - tn), vstack, pstack)
             else:
                 fn = interp.eval_point(code, params, boxes, ox + tn * dx, oy + tn * dy,
                                        oz + tn * dz, 0, vstack, pstack)
@@ -198,12 +201,13 @@ def march_cone(code, params, boxes, lips, ex, ey, ez, ax, ay, az, tan_a, t, t1, 
         r = te * tan_a
         px, py, pz = ex + t * ax, ey + t * ay, ez + t * az
         qx, qy, qz = ex + te * ax, ey + te * ay, ez + te * az
-        f, lam = interp.bound_box_at(code, params, boxes, lips, min(px, qx) - r, min(py, qy) - r,
-                                     min(pz, qz) - r, max(px, qx) + r, max(py, qy) + r,
-                                     max(pz, qz) + r, px, py, pz, vstack, pstack)
+        _, lam, below = interp.bound_box_at(code, params, boxes, lips, min(px, qx) - r,
+                                            min(py, qy) - r, min(pz, qz) - r, max(px, qx) + r,
+                                            max(py, qy) + r, max(pz, qz) + r, px, py, pz, vstack,
+                                            pstack)
         step = te - t
         if lam > 0.0:
-            step = min(step, ((ISO - f) / lam - t * tan_a) / (1.0 + tan_a))
+            step = min(step, (below - t * tan_a) / (1.0 + tan_a))
             if step < CONE_STOP * t * tan_a:
                 return t
         t += step
