@@ -202,12 +202,11 @@ class RemoteProgram:
         parts = self._map("evaluate", points)
         return tuple(np.concatenate([p[i] for p in parts]) for i in range(3))
 
-    def bound_at(self, lo: np.ndarray, hi: np.ndarray,
-                 at: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The field at the points ``at`` (M, 3) and a bound on |grad f| over each box [lo, hi]
-        holding them."""
-        parts = self._map("bound_at", lo, hi, at)
-        return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+    def bound_at(self, lo: np.ndarray, hi: np.ndarray, at: np.ndarray) -> np.ndarray:
+        """``Program.bound_at``: per box [lo, hi] (M, 3) holding its point ``at``, the field
+        there, a bound on |grad f| over the box and how far the field stays below and above
+        0.5 (M, 4)."""
+        return np.concatenate(self._map("bound_at", lo, hi, at))
 
 
 def polygonize(scheduler: str | Client, tree: Node, **options: Any) -> mesh.Mesh:

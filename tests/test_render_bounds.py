@@ -67,8 +67,8 @@ def test_csg_bound_drops_the_child_that_cannot_set_the_field(tree):
     for c in both:
         e = rng.uniform(0.002, 0.05, 3)
         rule = K.lipschitz_box(code, params, boxes, lips, *(c - e), *(c + e), vs, ps)
-        f, bound, below = K.bound_box_at(code, params, boxes, lips, *(c - e), *(c + e), *c, vs,
-                                         ps)
+        f, bound, below, above = K.bound_box_at(code, params, boxes, lips, *(c - e), *(c + e),
+                                                *c, vs, ps)
         P = c + rng.uniform(-1.0, 1.0, (400, 3)) * e
         fp, gp, _ = prog.evaluate(P)
         assert np.linalg.norm(gp, axis=1).max() <= bound * (1 + 1e-9) + 1e-12
@@ -76,10 +76,12 @@ def test_csg_bound_drops_the_child_that_cannot_set_the_field(tree):
         lower += bound < 0.9 * rule
         # below 0.5 as far as it says, and further than the bound alone proves where a term
         # of a min (or every child of a max) stays below on its own
-        assert np.all(fp[np.linalg.norm(P - c, axis=1) < below * (1 - 1e-9)] <= 0.5 + 1e-12)
-        plain = (0.5 - f) / bound if f < 0.5 and bound > 0 else (np.inf if f < 0.5 else 0.0)
-        assert below >= plain * (1 - 1e-12)
-        further += below > 1.1 * plain
+        distance = np.linalg.norm(P - c, axis=1)
+        assert np.all(fp[distance < below * (1 - 1e-9)] <= 0.5 + 1e-12)
+        assert np.all(fp[distance < above * (1 - 1e-9)] >= 0.5 - 1e-12)
+        plain = abs(0.5 - f) / bound if bound > 0 else np.inf
+        assert max(below, above) >= plain * (1 - 1e-12)
+        further += max(below, above) > 1.1 * plain
     assert lower >= 20  # (30-133 of the 300 boxes, by operator)
     if not isinstance(tree, bt.SuperBlend | bt.ControlledBlend):
         assert further >= 10

@@ -230,8 +230,8 @@ def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, val
     o (which must lie in the box) is evaluated along, and operators with a ``bound`` kernel use
     their children's values to drop the bounds of children that cannot set the result anywhere
     in the region (a CSG operator's loser).  Returns (the field at o, or 0; the bound; how
-    far from o the field surely stays below ISO: where the value and the bound say so, or
-    further where a min's term or all of a max's children do).
+    far from o the field surely stays below ISO, and above it: where the value and the bound
+    say so, or further where a min's term or all of a max's children do).
 
     Stacks: fields in vs[:, 0], bounds in ps[:, BOUND]; ps[pp, 0:3] saves the point and
     ps[pp, 3:9] the region across warps."""
@@ -318,7 +318,7 @@ def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, val
             _no_field(vs, ps, sp)
             sp += 1
             i += 1
-    return vs[0, 0], ps[0, BOUND], ps[0, BELOW]
+    return vs[0, 0], ps[0, BOUND], ps[0, BELOW], ps[0, ABOVE]
 
 
 @kernel
@@ -343,9 +343,9 @@ def lipschitz_box(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, vs, p
 @kernel
 def bound_box_at(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, x, y, z, vs, ps):
     """(The field at (x, y, z), a point of the box [lo, hi]; a bound on |grad f| over the box;
-    how far from the point within the box the field surely stays below ISO): ``lipschitz_box``,
-    where CSG operators drop the bounds of children that the field values at the point show
-    cannot set the result anywhere in the box."""
+    how far from the point within the box the field surely stays below ISO; and above it):
+    ``lipschitz_box``, where CSG operators drop the bounds of children that the field values at
+    the point show cannot set the result anywhere in the box."""
     return _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, False, True,
                       x, y, z, 0.0, 0.0, 0.0, 0.0, vs, ps)
 
@@ -353,8 +353,8 @@ def bound_box_at(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, x, y, 
 @kernel
 def lipschitz_segment(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, length, vs, ps):
     """(The field at o; a bound on |df/dt| along the segment o + t d, 0 <= t <= length, d a unit
-    vector; how far along it the field surely stays below ISO): :func:`bound_box_at` over the
-    segment's box, except that primitives with a
+    vector; how far along it the field surely stays below ISO; and above it): :func:`bound_box_at`
+    over the segment's box, except that primitives with a
     directional bound (point primitives, outside warps) take it instead (never larger, and
     small where the segment passes a primitive sideways, so grazing rays take long steps)."""
     bx, by, bz = ox + length * dx, oy + length * dy, oz + length * dz
@@ -380,13 +380,14 @@ def eval_range(start, stop, code, params, boxes, P, mode, depth, out_f, out_g, o
 
 
 @kernel(nrt=True, nogil=True)
-def bound_range(start, stop, code, params, boxes, lips, lo, hi, at, depth, out_f, out):
-    """``bound_box_at`` for boxes start..stop - 1 of (M, 3) lo, hi at their points ``at``."""
+def bound_range(start, stop, code, params, boxes, lips, lo, hi, at, depth, out):
+    """``bound_box_at`` for boxes start..stop - 1 of (M, 3) lo, hi at their points ``at``: the
+    four values in the rows of out (M, 4)."""
     vs, ps = scratch(depth)
     for m in range(start, stop):
-        out_f[m], out[m], _ = bound_box_at(code, params, boxes, lips, lo[m, 0], lo[m, 1],
-                                           lo[m, 2], hi[m, 0], hi[m, 1], hi[m, 2], at[m, 0],
-                                           at[m, 1], at[m, 2], vs, ps)
+        out[m, 0], out[m, 1], out[m, 2], out[m, 3] = bound_box_at(
+            code, params, boxes, lips, lo[m, 0], lo[m, 1], lo[m, 2], hi[m, 0], hi[m, 1],
+            hi[m, 2], at[m, 0], at[m, 1], at[m, 2], vs, ps)
 
 
 @kernel(nrt=True, nogil=True)

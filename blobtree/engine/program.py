@@ -144,20 +144,21 @@ class Program:
                      lo, hi, self.depth, out)
         return out
 
-    def bound_at(self, lo: np.ndarray, hi: np.ndarray,
-                 at: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Per box (M, 3) corners and a point ``at`` (M, 3) of each: the field at the point and a
-        bound on |grad f| over the box, which the field values let CSG operators tighten (a
-        child that cannot set the result anywhere in the box adds nothing to it)."""
+    def bound_at(self, lo: np.ndarray, hi: np.ndarray, at: np.ndarray) -> np.ndarray:
+        """Per box (M, 3) corners and a point ``at`` (M, 3) of each, a row (M, 4): the field at
+        the point, a bound on |grad f| over the box, and how far from the point the field
+        surely stays below and above 0.5 within the box.  The field values let CSG operators
+        tighten both (a child that cannot set the result anywhere in the box adds nothing to
+        the bound; a min stays below 0.5 as far as any of its terms does)."""
         lo, hi, at = (np.ascontiguousarray(a, dtype=np.float64).reshape(-1, 3)
                       for a in (lo, hi, at))
         if not len(lo) == len(hi) == len(at):
             raise ValueError(f"lo, hi and at must hold as many points, got {len(lo)}, "
                              f"{len(hi)} and {len(at)}")
-        f, out = np.empty(len(lo)), np.empty(len(lo))
+        out = np.empty((len(lo), 4))
         parallel_for(K.bound_range, len(lo), self.code, self.params, self.boxes, self.lips,
-                     lo, hi, at, self.depth, f, out)
-        return f, out
+                     lo, hi, at, self.depth, out)
+        return out
 
 
 class _Emitter:

@@ -58,15 +58,20 @@ def gather(sampled, boxes, kept_slot, kept_loc, offsets, block_origins, grid_ori
 
 
 @nb.njit(cache=True)
-def keep_boxes(lip, fc, half, lo, hi, bounds_lo, bounds_hi, clip, iso):
-    """Boxes the surface may cross: ``|f(centre) - iso| <= L * half-diagonal`` (and L > 0);
-    with ``clip``, also boxes reaching out of the bounds where the field may exceed iso there
-    (the cap of the cut solid)."""
+def keep_boxes(lip, fc, below, above, half, lo, hi, bounds_lo, bounds_hi, clip, iso):
+    """Boxes the surface may cross: ``|f(centre) - iso| <= L * half-diagonal`` (and L > 0),
+    unless the field surely stays below (or above) iso over the half-diagonal from the centre
+    (``below``, ``above``: distances the engine proved, 0 for none); with ``clip``, also boxes
+    reaching out of the bounds where the field may exceed iso there (the cap of the cut
+    solid)."""
     keep = np.empty(lip.shape[0], dtype=np.bool_)
     for q in range(lip.shape[0]):
         reach = lip[q] * half[q] * (1.0 + 1e-9) + 1e-12
-        keep[q] = lip[q] > 0 and abs(fc[q] - iso) <= reach
-        if clip and not keep[q] and lip[q] > 0 and fc[q] + reach >= iso:
+        stays_below = below[q] > half[q] * (1.0 + 1e-9)
+        stays_above = above[q] > half[q] * (1.0 + 1e-9)
+        keep[q] = (lip[q] > 0 and abs(fc[q] - iso) <= reach
+                   and not (stays_below or stays_above))
+        if clip and not keep[q] and lip[q] > 0 and fc[q] + reach >= iso and not stays_below:
             for a in range(3):
                 if lo[q, a] < bounds_lo[a] or hi[q, a] > bounds_hi[a]:
                     keep[q] = True

@@ -3,7 +3,8 @@
 1. **Cull** (:func:`_cull`).  An octree of boxes down to ``FINE`` cells; a box is dropped when
    the engine's Lipschitz bound L over it proves the 0.5 iso-surface cannot cross it,
    ``|f(centre) - 0.5| > L * half_diagonal`` (L is 0 where the box misses every node box; the
-   field values at the centre let CSG operators leave out a child that cannot win there).
+   field values at the centre let CSG operators leave out a child that cannot win there, and
+   prove more: a min stays below 0.5 as far as any of its terms does).
 2. **Sample** (:func:`_sample`).  The kept boxes at their corners and centres, then whole boxes
    from those showing both sides of 0.5 outwards across crossed faces.  Work therefore grows
    with the surface (about 4x per doubling of the resolution), not with the volume.
@@ -219,9 +220,11 @@ def _cull(prog, grid: _Grid, budget: int):
         # at the centre is unclipped, as L bounds it.)
         if size == FINE:
             lip, fc = parent_lip, prog.field(centre) if len(origins) else np.zeros(0)
+            below = above = np.zeros(len(fc))
         else:
-            fc, lip = prog.bound_at(lo, hi, centre)
-        keep = keep_boxes(lip, fc, half_diag, lo, hi, grid.lo, grid.hi, grid.clip, ISO)
+            fc, lip, below, above = prog.bound_at(lo, hi, centre).T
+        keep = keep_boxes(lip, fc, below, above, half_diag, lo, hi, grid.lo, grid.hi, grid.clip,
+                          ISO)
         origins, kept_value, kept_lip = origins[keep], fc[keep], lip[keep]
         if size > FINE:
             triangles = len(origins) * size * size * TRIANGLES_PER_CELL

@@ -110,9 +110,9 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
     """
     t = t0
     delta = delta0
-    f, lam, below = interp.lipschitz_segment(code, params, boxes, lips, ox + t * dx, oy + t * dy,
-                                             oz + t * dz, dx, dy, dz, min(delta, t1 - t), vstack,
-                                             pstack)
+    f, lam, below, _ = interp.lipschitz_segment(code, params, boxes, lips, ox + t * dx,
+                                                oy + t * dy, oz + t * dz, dx, dy, dz,
+                                                min(delta, t1 - t), vstack, pstack)
     f -= ISO
     if f >= 0.0:
         return t, 0.0, t
@@ -134,10 +134,10 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
             new_segment = tn >= te or te - tn > REBOUND * last
             if new_segment:
                 delta = SEGMENT_GROWTH * (tn - ts) if tn >= te else GROWTH * last
-                fn, lam, below = interp.lipschitz_segment(code, params, boxes, lips,
-                                                          ox + tn * dx, oy + tn * dy,
-                                                          oz + tn * dz, dx, dy, dz,
-                                                          min(delta, t1 - tn), vstack, pstack)
+                fn, lam, below, _ = interp.lipschitz_segment(code, params, boxes, lips,
+                                                             ox + tn * dx, oy + tn * dy,
+                                                             oz + tn * dz, dx, dy, dz,
+                                                             min(delta, t1 - tn), vstack, pstack)
             else:
                 fn = interp.eval_point(code, params, boxes, ox + tn * dx, oy + tn * dy,
                                        oz + tn * dz, 0, vstack, pstack)
@@ -201,10 +201,10 @@ def march_cone(code, params, boxes, lips, ex, ey, ez, ax, ay, az, tan_a, t, t1, 
         r = te * tan_a
         px, py, pz = ex + t * ax, ey + t * ay, ez + t * az
         qx, qy, qz = ex + te * ax, ey + te * ay, ez + te * az
-        _, lam, below = interp.bound_box_at(code, params, boxes, lips, min(px, qx) - r,
-                                            min(py, qy) - r, min(pz, qz) - r, max(px, qx) + r,
-                                            max(py, qy) + r, max(pz, qz) + r, px, py, pz, vstack,
-                                            pstack)
+        _, lam, below, _ = interp.bound_box_at(code, params, boxes, lips, min(px, qx) - r,
+                                               min(py, qy) - r, min(pz, qz) - r,
+                                               max(px, qx) + r, max(py, qy) + r,
+                                               max(pz, qz) + r, px, py, pz, vstack, pstack)
         step = te - t
         if lam > 0.0:
             step = min(step, (below - t * tan_a) / (1.0 + tan_a))
