@@ -1,11 +1,14 @@
-"""Benchmark: the direct ray tracer against POV-Ray's blob on the whorl126 scene (issue 4).
+"""Benchmark: the direct ray tracer against POV-Ray's blob on the whorl126 scene (issues 4, 13).
 
-Renders whorl126 at 800x800 and 1600x1600 (one light, no shadows, no anti-aliasing, the same
-framing) with POV-Ray and with blobtree, both as whole processes from the command line, and with
-blobtree also in-process after warm-up.  Prints times and ratios, the numba compile cost (a run
-with an empty cache), and saves the two images side by side.
+Renders whorl126 at 800x800 and 1600x1600 (one light, no anti-aliasing, the same framing) with
+POV-Ray and with blobtree, both as whole processes from the command line, and with blobtree also
+in-process after warm-up: without shadows, and with shadows on both sides (the same parallel
+light).  Then times ``blobtree render murex --size 1024x1024`` (the default look: textures,
+shadows) as a whole process against POV-Ray's whorl126 at the largest size.  Prints times and
+ratios, the numba compile cost (a run with an empty cache), the bars of issue 13, and saves the
+images side by side.
 
-    python bench/bench_render.py [--sizes 800,1600] [--repeat 3] [--out bench/out]
+    python bench/bench_render.py [--sizes 800,1600] [--repeat 3] [--murex 1024] [--out bench/out]
 
 POV-Ray's blob component field is strength (1 - r^2/radius^2)^2.  With radius 2D it is
 strength * (3/4)^2 = 0.5625 strength at r = D, so strength 0.5 / 0.5625 puts the 0.5 iso-surface
@@ -54,8 +57,10 @@ def whorl_centres() -> tuple[np.ndarray, np.ndarray]:
     return np.array(centres), np.array(sizes)
 
 
-def pov_scene(camera: Camera, light_dir: np.ndarray, width: int, height: int) -> str:
-    """The POV-Ray scene: one blob, camera and parallel light, with z mirrored."""
+def pov_scene(camera: Camera, light_dir: np.ndarray, width: int, height: int,
+              shadows: bool = False) -> str:
+    """The POV-Ray scene: one blob, camera and parallel light (casting shadows or not), with z
+    mirrored."""
     def v(p) -> str:
         return f"<{p[0]:.9g}, {p[1]:.9g}, {-p[2]:.9g}>"
 
@@ -72,7 +77,7 @@ background {{ rgb 1 }}
 camera {{ perspective location {v(camera.eye)} look_at {v(target)} sky y
          up y right x * {aspect:.9g} angle {hfov:.9g} }}
 light_source {{ {v(target - 1000.0 * light_dir)} color rgb 1 parallel point_at {v(target)}
-               shadowless }}
+               {"" if shadows else "shadowless"} }}
 blob {{ threshold 0.5
 {comps}
   pigment {{ rgb {lin:.6g} }}
@@ -92,6 +97,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--sizes", default="800,1600")
     ap.add_argument("--repeat", type=int, default=3, help="best of this many runs")
+    ap.add_argument("--murex", type=int, default=1024, help="size of the Murex render (0: skip)")
     ap.add_argument("--out", default=str(ROOT / "bench" / "out"))
     args = ap.parse_args()
     sizes = [int(s) for s in args.sizes.split(",")]
@@ -112,50 +118,66 @@ def main() -> None:
     cache = tempfile.mkdtemp(prefix="blobtree-numba-")
     env["NUMBA_CACHE_DIR"] = cache
 
-    def ours(size: int, path: Path) -> list[str]:
+    def ours(size: int, path: Path, shadows: bool) -> list[str]:
         return [sys.executable, "-m", "blobtree.cli.main", "render", "whorl126", "-o", str(path),
-                "--size", f"{size}x{size}", "--no-shadows", "--look", "paper", "--quiet", *cam_opts]
+                "--size", f"{size}x{size}", "--look", "paper", "--quiet", *cam_opts,
+                *([] if shadows else ["--no-shadows"])]
 
     rows = []
-    cold = timed(ours(sizes[0], out / "cold.png"), env)  # empty numba cache: compiles
-    for size in sizes:
-        pov_file = out / f"whorl126_{size}.pov"
-        pov_file.write_text(pov_scene(camera, light_dir, size, size))
-        pov_png = out / f"whorl126_{size}_povray.png"
-        our_png = out / f"whorl126_{size}_blobtree.png"
-        pov_cmd = [povray, f"+I{pov_file}", f"+O{pov_png}", f"+W{size}", f"+H{size}", "-D", "-A",
-                   "+FN", "-GA", "File_Gamma=sRGB", f"+WT{os.cpu_count()}"]
-        t_pov = min(timed(pov_cmd) for _ in range(args.repeat))
-        t_cli = min(timed(ours(size, our_png), env) for _ in range(args.repeat))
-        # the paper look: one light, plain background, as the POV-Ray scene
-        render(prog, 64, 64, camera=camera, shadows=False, look="paper")  # warm-up
-        t_in = math.inf
-        for _ in range(args.repeat):
-            start = time.perf_counter()
-            img = render(prog, size, size, camera=camera, shadows=False, look="paper")
-            t_in = min(t_in, time.perf_counter() - start)
-        assert (img == np.asarray(Image.open(our_png))).all(), "CLI and in-process images differ"
-        side = np.concatenate([np.asarray(Image.open(pov_png).convert("RGB")), img], axis=1)
-        Image.fromarray(side).save(out / f"whorl126_{size}_povray_vs_blobtree.png")
-        rows.append((size, t_pov, t_cli, t_in))
+    cold = timed(ours(sizes[0], out / "cold.png", False), env)  # empty numba cache: compiles
+    for shadows in (False, True):
+        tag = "shadows" if shadows else "noshadows"
+        for size in sizes:
+            pov_file = out / f"whorl126_{size}_{tag}.pov"
+            pov_file.write_text(pov_scene(camera, light_dir, size, size, shadows))
+            pov_png = out / f"whorl126_{size}_{tag}_povray.png"
+            our_png = out / f"whorl126_{size}_{tag}_blobtree.png"
+            pov_cmd = [povray, f"+I{pov_file}", f"+O{pov_png}", f"+W{size}", f"+H{size}", "-D",
+                       "-A", "+FN", "-GA", "File_Gamma=sRGB", f"+WT{os.cpu_count()}"]
+            t_pov = min(timed(pov_cmd) for _ in range(args.repeat))
+            t_cli = min(timed(ours(size, our_png, shadows), env) for _ in range(args.repeat))
+            # the paper look: one light, plain background, as the POV-Ray scene
+            render(prog, 64, 64, camera=camera, shadows=shadows, look="paper")  # warm-up
+            t_in = math.inf
+            for _ in range(args.repeat):
+                start = time.perf_counter()
+                img = render(prog, size, size, camera=camera, shadows=shadows, look="paper")
+                t_in = min(t_in, time.perf_counter() - start)
+            assert (img == np.asarray(Image.open(our_png))).all(), "CLI, in-process differ"
+            side = np.concatenate([np.asarray(Image.open(pov_png).convert("RGB")), img], axis=1)
+            Image.fromarray(side).save(out / f"whorl126_{size}_{tag}_povray_vs_blobtree.png")
+            rows.append((shadows, size, t_pov, t_cli, t_in))
+    t_murex = math.inf
+    if args.murex:
+        murex_cmd = [sys.executable, "-m", "blobtree.cli.main", "render", "murex", "-o",
+                     str(out / f"murex_{args.murex}.png"), "--size", f"{args.murex}x{args.murex}",
+                     "--quiet"]
+        t_murex = min(timed(murex_cmd, env) for _ in range(args.repeat))
     shutil.rmtree(cache, ignore_errors=True)
 
-    print(f"whorl126, 1 light, no shadows, no AA; best of {args.repeat}; {os.cpu_count()} cores")
-    print(f"{'size':>10} {'POV-Ray':>9} {'blobtree CLI':>13} {'ratio':>6} "
+    print(f"whorl126, 1 light, no AA; best of {args.repeat}; {os.cpu_count()} cores")
+    print(f"{'shadows':>8} {'size':>10} {'POV-Ray':>9} {'blobtree CLI':>13} {'ratio':>6} "
           f"{'in-process':>11} {'ratio':>6}")
-    for size, t_pov, t_cli, t_in in rows:
-        print(f"{size:>5}x{size:<4} {t_pov:>8.2f}s {t_cli:>12.2f}s {t_cli / t_pov:>6.2f} "
-              f"{t_in:>10.3f}s {t_in / t_pov:>6.2f}")
-    warm = next(t_cli for size, _, t_cli, _ in rows if size == sizes[0])
+    for shadows, size, t_pov, t_cli, t_in in rows:
+        print(f"{'on' if shadows else 'off':>8} {size:>5}x{size:<4} {t_pov:>8.2f}s "
+              f"{t_cli:>12.2f}s {t_cli / t_pov:>6.2f} {t_in:>10.3f}s {t_in / t_pov:>6.2f}")
+    warm = next(t_cli for shadows, size, _, t_cli, _ in rows if size == sizes[0] and not shadows)
     print(f"numba compile cost (first run, empty cache): {cold:.2f}s - {warm:.2f}s = "
           f"{cold - warm:.2f}s")
-    bars = {1600: ("CLI", 1.0), 800: ("in-process", 0.5)}
-    for size, t_pov, t_cli, t_in in rows:
-        if size in bars:
-            kind, limit = bars[size]
-            ratio = (t_cli if kind == "CLI" else t_in) / t_pov
-            verdict = "PASS" if ratio <= limit else "FAIL"
-            print(f"bar {size}: {kind} <= {limit}x POV-Ray: {ratio:.2f}x {verdict}")
+    # issue 13's bars: whole processes against POV-Ray at the largest size
+    big = max(sizes)
+    pov = {shadows: t_pov for shadows, size, t_pov, _, _ in rows if size == big}
+    cli = {shadows: t_cli for shadows, size, _, t_cli, _ in rows if size == big}
+    bars = [(f"whorl126 {big}, no shadows: CLI", cli[False] / pov[False], 0.5),
+            (f"whorl126 {big}, shadows: CLI", cli[True] / pov[True], 0.7)]
+    if args.murex:
+        print(f"murex {args.murex}x{args.murex} (default look, shadows), whole command: "
+              f"{t_murex:.2f}s")
+        bars.append((f"murex {args.murex} over POV-Ray's whorl126 {big} (no shadows)",
+                     t_murex / pov[False], 5.0))
+    for name, ratio, limit in bars:
+        verdict = "PASS" if ratio <= limit else "FAIL"
+        print(f"bar {name} <= {limit}x POV-Ray: {ratio:.2f}x {verdict}")
     print(f"images: {out}")
 
 
