@@ -218,7 +218,7 @@ def test_segment_lipschitz_bounds_hold_on_random_trees(tree, seed, frac):
     code, params, boxes, lips = prog.arrays
     for o, d in zip(starts, dirs, strict=True):
         f, bound, below, above = K.lipschitz_segment(code, params, boxes, lips, *o, *d, length,
-                                                     vs, ps)
+                                                     True, vs, ps)
         ts = np.linspace(0.0, length, 200)
         fq, gq, _ = tree.reference(o + ts[:, None] * d)
         assert np.abs(gq @ d).max() <= bound * (1 + 1e-9) + 1e-12
@@ -242,7 +242,7 @@ def test_point_directional_bound_is_the_largest_slope(falloff, radius, seed):
         d = rng.normal(size=3)
         d /= np.linalg.norm(d)
         length = rng.uniform(0.05, 3.0) * radius
-        bound = K.lipschitz_segment(code, params, boxes, lips, *o, *d, length, vs, ps)[1]
+        bound = K.lipschitz_segment(code, params, boxes, lips, *o, *d, length, False, vs, ps)[1]
         Q = o + np.linspace(0.0, length, 4001)[:, None] * d
         slope = np.abs(tree.reference(Q)[1] @ d).max()
         assert slope <= bound * (1 + 1e-9) + 1e-12

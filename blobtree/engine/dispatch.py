@@ -70,6 +70,9 @@ ZERO_FIRST = _table("ZERO_FIRST", ZERO_RULES, "kill", "drop")
 ZERO_REST = _table("ZERO_REST", ZERO_RULES, "kill", "drop")
 SUM, MAX = (LIPSCHITZ_RULES.index(r) for r in ("sum", "max"))
 LIPSCHITZ = _table("LIPSCHITZ", LIPSCHITZ_RULES, "sum", "sum")
+#: Whether an opcode's type has a value-aware ``bound`` kernel (a CSG operator's).
+VALUE_BOUND = np.array([c.KIND == "operator" and c.KERNELS.bound is not None for c in TYPES]
+                       + [False] * 4)
 #: Value-stack rows an operator needs beyond its children.
 STACK = np.array([getattr(c, "STACK", 0) for c in TYPES] + [0] * 4, dtype=np.int64)
 
@@ -149,9 +152,9 @@ SOURCE = "".join([
     _dispatcher("prim_rows", "fid, p, o, pts, pp, vs, sp, nb", "primitive", _ROWS, "return"),
     _dispatcher("combine", "vs, b, k, p, o, mode", "operator",
                 "K.combine(vs, b, k, p, o, mode)\nreturn", "return"),
-    _dispatcher("op_bound", "vs, ps, b, k, p, o, reach", "operator",
-                lambda c: ("K.bound(vs, ps, b, k, p, o, reach)\nreturn True" if c.KERNELS.bound
-                           else "return False"), "return False"),
+    _dispatcher("op_bound", "vs, b, k, p, o, reach", "operator",
+                lambda c: ("return K.bound(vs, b, k, p, o, reach)" if c.KERNELS.bound
+                           else "return -1.0, 0.0, 0.0"), "return -1.0, 0.0, 0.0"),
     _dispatcher("combine_rows", "vs, b, k, p, o, nb, tmp", "operator",
                 lambda c: ("K.rows(vs, b, k, p, o, nb)\nreturn" if c.KERNELS.rows
                            else _ROWS_FROM_COMBINE), "return"),
@@ -199,8 +202,8 @@ prim_along = _D["prim_along"]
 prim_rows = _D["prim_rows"]
 #: operator over the value stack: combine(op, vs, b, k, p, o, mode)
 combine = _D["combine"]
-#: an operator's value-aware bound over a region, if it has one (False: apply its rule):
-#: op_bound(op, vs, ps, b, k, p, o, reach)
+#: an operator's value-aware (bound, below, above) over a region, or a bound of -1 where it has
+#: none (apply its rule): op_bound(op, vs, b, k, p, o, reach)
 op_bound = _D["op_bound"]
 #: operator over batch rows: combine_rows(op, vs, b, k, p, o, nb, tmp)
 combine_rows = _D["combine_rows"]

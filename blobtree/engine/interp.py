@@ -32,6 +32,7 @@ from .dispatch import (
     K_WARP,
     LIPSCHITZ,
     SUM,
+    VALUE_BOUND,
     combine,
     kind_of,
     op_bound,
@@ -223,18 +224,101 @@ def _prim_bound(op, p, o, lip, ray, pp, lox, loy, loz, hix, hiy, hiz, ox, oy, oz
 
 
 @kernel
-def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, values, ox, oy, oz,
-               dx, dy, dz, length, vs, ps):
-    """``lipschitz_box``; with ``ray``, primitives with a directional bound (outside warps) take
-    it along the segment o + t d, 0 <= t <= length inside the box; with ``values``, the field at
-    o (which must lie in the box) is evaluated along, and operators with a ``bound`` kernel use
-    their children's values to drop the bounds of children that cannot set the result anywhere
-    in the region (a CSG operator's loser).  Returns (the field at o, or 0; the bound; how
-    far from o the field surely stays below ISO, and above it: where the value and the bound
-    say so, or further where a min's term or all of a max's children do).
+def _carry(kind, op, p, o, lip, lox, loy, loz, hix, hiy, hiz, scratch):
+    """The region [lo, hi] carried into a PUSHPT's frame (the box around its affine image) or
+    through a WARP (a cube around the warped centre: the query map moves points by at most
+    its stretch ``lip`` times the distance); ``scratch``: a point stack the warp may not use."""
+    if kind == K_PUSHPT:
+        cx, cy, cz, ex, ey, ez = map_box(p, o, lox, loy, loz, hix, hiy, hiz)
+        return cx - ex, cy - ey, cz - ez, cx + ex, cy + ey, cz + ez
+    cx, cy, cz = 0.5 * (lox + hix), 0.5 * (loy + hiy), 0.5 * (loz + hiz)
+    ex, ey, ez = 0.5 * (hix - lox), 0.5 * (hiy - loy), 0.5 * (hiz - loz)
+    reach = lip * math.sqrt(ex * ex + ey * ey + ez * ez)
+    wx, wy, wz = apply_warp(op, p, o, cx, cy, cz, scratch, 0, 0)
+    return wx - reach, wy - reach, wz - reach, wx + reach, wy + reach, wz + reach
 
-    Stacks: fields in vs[:, 0], bounds in ps[:, BOUND]; ps[pp, 0:3] saves the point and
-    ps[pp, 3:9] the region across warps."""
+
+@kernel
+def _rule(op, vs, col, b, sp):
+    """An operator's ``LIPSCHITZ`` rule over its children's bounds in vs[b:sp, col]."""
+    acc = 0.0
+    if LIPSCHITZ[op] == SUM:
+        for j in range(b, sp):
+            acc += vs[j, col]
+    else:
+        for j in range(b, sp):
+            acc = max(acc, vs[j, col])
+    return acc
+
+
+@kernel
+def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox, oy, oz, dx,
+               dy, dz, length, vs):
+    """``lipschitz_box``; with ``ray``, primitives with a directional bound (outside warps) take
+    it along the segment o + t d, 0 <= t <= length inside the box.  Bounds in vs[:, 0], the
+    regions saved across warps in vs[pp, 1:7] (no field values: see :func:`_bounded`)."""
+    n = code.shape[0]
+    sp = 0
+    pp = 0
+    i = 0
+    while i < n:
+        op = code[i, 0]
+        kind = kind_of(op)
+        if kind == K_PRIMITIVE:
+            if misses(boxes, i, lox, loy, loz, hix, hiy, hiz):
+                vs[sp, 0] = 0.0
+            else:
+                vs[sp, 0] = _prim_bound(op, params, code[i, 1], lips[i], ray, pp, lox, loy, loz,
+                                        hix, hiy, hiz, ox, oy, oz, dx, dy, dz, length)
+            sp += 1
+            i += 1
+        elif kind == K_OPERATOR:
+            b = sp - code[i, 3]
+            vs[b, 0] = _rule(op, vs, 0, b, sp)
+            sp = b + 1
+            i += 1
+        elif kind == K_BOX or kind == K_PUSHPT or kind == K_WARP:
+            if misses(boxes, i, lox, loy, loz, hix, hiy, hiz):
+                vs[sp, 0] = 0.0
+                sp += 1
+                i = code[i, 2]
+                continue
+            if kind == K_PUSHPT:  # save the region
+                pp += 1
+                vs[pp, 1], vs[pp, 2], vs[pp, 3] = lox, loy, loz
+                vs[pp, 4], vs[pp, 5], vs[pp, 6] = hix, hiy, hiz
+            if kind != K_BOX:
+                lox, loy, loz, hix, hiy, hiz = _carry(kind, op, params, code[i, 1], lips[i],
+                                                      lox, loy, loz, hix, hiy, hiz, vs)
+            i += 1
+        elif kind == K_POPPT:
+            vs[sp - 1, 0] *= lips[i]
+            lox, loy, loz = vs[pp, 1], vs[pp, 2], vs[pp, 3]
+            hix, hiy, hiz = vs[pp, 4], vs[pp, 5], vs[pp, 6]
+            pp -= 1
+            i += 1
+        elif kind == K_PAINT:
+            i += 1
+        else:  # K_ZERO
+            vs[sp, 0] = 0.0
+            sp += 1
+            i += 1
+    return vs[0, 0]
+
+
+@kernel
+def _bounded(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox, oy, oz, dx, dy,
+             dz, length, vs, ps):
+    """:func:`_lipschitz` that also evaluates the field at o (a point of the box) and hands
+    each operator its children's values: an operator with a ``bound`` kernel uses them to leave
+    out children that cannot set its field anywhere in the region (a CSG operator's loser), and
+    to say how far its field surely stays below and above ISO.  Returns (the field at o; the
+    bound; how far from o the field surely stays below ISO, and above it).  Costlier than
+    :func:`_lipschitz` where no such operator is (a program of blends).
+
+    Stacks: fields in vs[:, 0], bounds in vs[:, BOUND], the distances an operator proved in
+    vs[:, BELOW] and vs[:, ABOVE] (``kmath.safe_distances`` adds those of the value and bound);
+    ps[pp, 0:3] saves the point and ps[pp, 3:9] the region across warps."""
     n = code.shape[0]
     p = params
     sp = 0
@@ -245,15 +329,12 @@ def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, val
         op = code[i, 0]
         kind = kind_of(op)
         if kind == K_PRIMITIVE:
-            vs[sp, 0] = 0.0
-            if misses(boxes, i, lox, loy, loz, hix, hiy, hiz):
-                ps[sp, BOUND] = 0.0
-            else:
-                ps[sp, BOUND] = _prim_bound(op, p, code[i, 1], lips[i], ray, pp, lox, loy, loz,
+            vs[sp, 0] = vs[sp, BOUND] = vs[sp, BELOW] = vs[sp, ABOVE] = 0.0
+            if not misses(boxes, i, lox, loy, loz, hix, hiy, hiz):
+                vs[sp, BOUND] = _prim_bound(op, p, code[i, 1], lips[i], ray, pp, lox, loy, loz,
                                             hix, hiy, hiz, ox, oy, oz, dx, dy, dz, length)
-                if values and not outside(boxes, i, px, py, pz):
+                if not outside(boxes, i, px, py, pz):
                     _primitive(op, code, i, p, code[i, 1], px, py, pz, 0, vs, sp)
-            ps[sp, BELOW], ps[sp, ABOVE] = safe_distances(vs[sp, 0], ps[sp, BOUND])
             sp += 1
             i += 1
         elif kind == K_OPERATOR:
@@ -261,25 +342,16 @@ def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, val
             b = sp - k
             o = code[i, 1]
             reach = math.sqrt((hix - lox) ** 2 + (hiy - loy) ** 2 + (hiz - loz) ** 2)
-            if not (values and op_bound(op, vs, ps, b, k, p, o, reach)):
-                acc = 0.0
-                if LIPSCHITZ[op] == SUM:
-                    for j in range(b, sp):
-                        acc += ps[j, BOUND]
-                else:
-                    for j in range(b, sp):
-                        acc = max(acc, ps[j, BOUND])
-                ps[b, BOUND] = acc
-                ps[b, BELOW] = ps[b, ABOVE] = 0.0
-            if values:
-                combine(op, vs, b, k, p, o, 0)
-                below, above = safe_distances(vs[b, 0], ps[b, BOUND])
-                ps[b, BELOW], ps[b, ABOVE] = max(ps[b, BELOW], below), max(ps[b, ABOVE], above)
+            bound, below, above = op_bound(op, vs, b, k, p, o, reach)  # before combine
+            if bound < 0.0:
+                bound = _rule(op, vs, BOUND, b, sp)
+            combine(op, vs, b, k, p, o, 0)
+            vs[b, BOUND], vs[b, BELOW], vs[b, ABOVE] = bound, below, above
             sp = b + 1
             i += 1
         elif kind == K_BOX or kind == K_PUSHPT or kind == K_WARP:
             if misses(boxes, i, lox, loy, loz, hix, hiy, hiz):
-                _no_field(vs, ps, sp)
+                vs[sp, 0] = vs[sp, BOUND] = vs[sp, BELOW] = vs[sp, ABOVE] = 0.0
                 sp += 1
                 i = code[i, 2]
                 continue
@@ -290,23 +362,16 @@ def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, val
                 ps[pp, 3], ps[pp, 4], ps[pp, 5] = lox, loy, loz
                 ps[pp, 6], ps[pp, 7], ps[pp, 8] = hix, hiy, hiz
                 px, py, pz = map_point(p, o, px, py, pz)
-                cx, cy, cz, ex, ey, ez = map_box(p, o, lox, loy, loz, hix, hiy, hiz)
-                lox, loy, loz = cx - ex, cy - ey, cz - ez
-                hix, hiy, hiz = cx + ex, cy + ey, cz + ez
-            elif kind == K_WARP:  # the query map moves points by at most stretch * distance
-                cx, cy, cz = 0.5 * (lox + hix), 0.5 * (loy + hiy), 0.5 * (loz + hiz)
-                ex, ey, ez = 0.5 * (hix - lox), 0.5 * (hiy - loy), 0.5 * (hiz - loz)
-                reach = lips[i] * math.sqrt(ex * ex + ey * ey + ez * ez)
-                wx, wy, wz = apply_warp(op, p, o, cx, cy, cz, ps, 0, 0)
-                lox, loy, loz = wx - reach, wy - reach, wz - reach
-                hix, hiy, hiz = wx + reach, wy + reach, wz + reach
-                if values:
-                    px, py, pz = apply_warp(op, p, o, px, py, pz, ps, 0, 0)
+            elif kind == K_WARP:
+                px, py, pz = apply_warp(op, p, o, px, py, pz, ps, 0, 0)
+            if kind != K_BOX:
+                lox, loy, loz, hix, hiy, hiz = _carry(kind, op, p, o, lips[i], lox, loy, loz,
+                                                      hix, hiy, hiz, ps)
             i += 1
         elif kind == K_POPPT:  # frame distances are at most lips[i] times the outer ones
-            ps[sp - 1, BOUND] *= lips[i]
-            ps[sp - 1, BELOW] /= lips[i]
-            ps[sp - 1, ABOVE] /= lips[i]
+            vs[sp - 1, BOUND] *= lips[i]
+            vs[sp - 1, BELOW] /= lips[i]
+            vs[sp - 1, ABOVE] /= lips[i]
             px, py, pz = ps[pp, 0], ps[pp, 1], ps[pp, 2]
             lox, loy, loz = ps[pp, 3], ps[pp, 4], ps[pp, 5]
             hix, hiy, hiz = ps[pp, 6], ps[pp, 7], ps[pp, 8]
@@ -315,19 +380,11 @@ def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, val
         elif kind == K_PAINT:
             i += 1
         else:  # K_ZERO
-            _no_field(vs, ps, sp)
+            vs[sp, 0] = vs[sp, BOUND] = vs[sp, BELOW] = vs[sp, ABOVE] = 0.0
             sp += 1
             i += 1
-    return vs[0, 0], ps[0, BOUND], ps[0, BELOW], ps[0, ABOVE]
-
-
-@kernel
-def _no_field(vs, ps, sp):
-    """Row sp of ``_lipschitz``'s stacks for a subtree with no field in the region."""
-    vs[sp, 0] = 0.0
-    ps[sp, BOUND] = 0.0
-    ps[sp, BELOW] = math.inf
-    ps[sp, ABOVE] = 0.0
+    below, above = safe_distances(vs, 0)
+    return vs[0, 0], vs[0, BOUND], below, above
 
 
 @kernel
@@ -336,8 +393,8 @@ def lipschitz_box(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, vs, p
     (sum at blends, max at CSG) over only the primitives whose boxes meet it, each with its
     distance-aware bound; through a warp the box is carried into the warp's child frame (as a
     cube around the warped centre, grown by the warp's stretch) and the result scaled back."""
-    return _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, False, False,
-                      0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, vs, ps)[1]
+    return _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, False, 0.0, 0.0,
+                      0.0, 0.0, 0.0, 0.0, 0.0, vs)
 
 
 @kernel
@@ -345,22 +402,37 @@ def bound_box_at(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, x, y, 
     """(The field at (x, y, z), a point of the box [lo, hi]; a bound on |grad f| over the box;
     how far from the point within the box the field surely stays below ISO; and above it):
     ``lipschitz_box``, where CSG operators drop the bounds of children that the field values at
-    the point show cannot set the result anywhere in the box."""
-    return _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, False, True,
-                      x, y, z, 0.0, 0.0, 0.0, 0.0, vs, ps)
+    the point show cannot set the result anywhere in the box (:func:`_bounded`)."""
+    return _bounded(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, False, x, y, z,
+                    0.0, 0.0, 0.0, 0.0, vs, ps)
 
 
 @kernel
-def lipschitz_segment(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, length, vs, ps):
+def bounds_use_values(code):
+    """Whether the program's root is an operator whose bound uses field values (a CSG root):
+    then a bound taken with the field is worth its extra work (``lipschitz_segment`` with
+    ``values``); a program of blends gains nothing from it."""
+    n = code.shape[0]
+    return n > 0 and VALUE_BOUND[code[n - 1, 0]]
+
+
+@kernel
+def lipschitz_segment(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, length, values, vs,
+                      ps):
     """(The field at o; a bound on |df/dt| along the segment o + t d, 0 <= t <= length, d a unit
-    vector; how far along it the field surely stays below ISO; and above it): :func:`bound_box_at`
-    over the segment's box, except that primitives with a
-    directional bound (point primitives, outside warps) take it instead (never larger, and
-    small where the segment passes a primitive sideways, so grazing rays take long steps)."""
+    vector; how far along it the field surely stays below ISO; and above it; the field and the
+    distances only with ``values``, else 0): :func:`bound_box_at` over the segment's box, except
+    that primitives with a directional bound (point primitives, outside warps) take it instead
+    (never larger, and small where the segment passes a primitive sideways, so grazing rays
+    take long steps)."""
     bx, by, bz = ox + length * dx, oy + length * dy, oz + length * dz
-    return _lipschitz(code, params, boxes, lips, min(ox, bx), min(oy, by), min(oz, bz),
-                      max(ox, bx), max(oy, by), max(oz, bz), True, True, ox, oy, oz, dx, dy, dz,
-                      length, vs, ps)
+    lox, loy, loz = min(ox, bx), min(oy, by), min(oz, bz)
+    hix, hiy, hiz = max(ox, bx), max(oy, by), max(oz, bz)
+    if values:
+        return _bounded(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, True, ox, oy,
+                        oz, dx, dy, dz, length, vs, ps)
+    return 0.0, _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, True, ox,
+                           oy, oz, dx, dy, dz, length, vs), 0.0, 0.0
 
 
 @kernel(nrt=True, nogil=True)

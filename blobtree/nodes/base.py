@@ -108,10 +108,11 @@ class PrimitiveKernels:
     along: Callable | None = None
 
 
-#: Columns of the engine's point scratch that hold, for a value-stack row, a bound on its
-#: gradient over a region, and distances from the region's point over which its field surely
-#: stays below / above ISO (read and written by operators' ``bound`` kernels).
-BOUND, BELOW, ABOVE = 9, 10, 11
+#: Columns of the value stack that, in the engine's bound pass (field only: the colour's columns
+#: are free there), hold a row's gradient bound over a region and the distances from the
+#: region's point over which its field surely stays below / above ISO, as an operator proved
+#: them (read by operators' ``bound`` kernels).
+BOUND, BELOW, ABOVE = 4, 5, 6
 
 
 @dataclass(frozen=True)
@@ -119,13 +120,13 @@ class OperatorKernels:
     """``combine(vs, b, k, p, o, mode)``: the operator over value-stack rows b .. b + k - 1 (field,
     gradient, colour; see engine.interp), result in row b; optional ``rows(vs, b, k, p, o, nb)``:
     field only over the rows of a batch of nb points (engine.batch), vectorisable; optional
-    ``bound(vs, ps, b, k, p, o, reach)``: a bound on |grad f| over a region of diameter
-    ``reach`` into ps[b, BOUND], from the children's fields at a point of the region
-    (vs[b + j, 0]) and their bounds over it (ps[b + j, BOUND]); without it the ``LIPSCHITZ``
-    rule applies.  A CSG operator uses the values to drop the bound of a child that cannot
-    set the result anywhere in the region, and sets ps[b, BELOW] / ps[b, ABOVE] from its
-    children's (a min stays below ISO as far as any of its terms does); the engine takes the
-    larger of those and the distances its own value and bound give."""
+    ``bound(vs, b, k, p, o, reach) -> (bound, below, above)``: from the children's fields at a
+    point of a region (vs[b + j, 0]) and their bounds over it (vs[b + j, BOUND], a region of
+    diameter ``reach``), a bound on |grad f| over the region, and how far from the point the
+    field surely stays below and above ISO (0: no more than its value and bound say); without
+    it the ``LIPSCHITZ`` rule applies.  A CSG operator uses the values to drop the bound of a
+    child that cannot set the result anywhere in the region, and its children's distances
+    (``kmath.safe_distances``): a min stays below ISO as far as any of its terms does."""
 
     combine: Callable
     rows: Callable | None = None

@@ -18,8 +18,6 @@ import numpy as np
 from ..checks import Number
 from ..jit import kernel
 from .base import (
-    ABOVE,
-    BELOW,
     BOUND,
     Node,
     Operator,
@@ -128,31 +126,31 @@ def _group_gradient_colour(vs, b, p, q, f):
 
 
 @kernel
-def _candidate(vs, ps, b, p, q, size, n, reach, kind):
+def _candidate(vs, b, p, q, size, n, reach, kind):
     """One candidate of the max over the region (kind 0: pair at p[q:q + 2], 1: group with its
     exponent n, size and members at p[q:q + size], 2: the single child at p[q]): its lowest
     and highest field there (from each member's f +- L reach) and its gradient bound."""
     low = high = bound = top = 0.0
     for i in range(size):
         j = b + int(p[q + i])
-        lo_j, hi_j = vs[j, 0] - ps[j, BOUND] * reach, vs[j, 0] + ps[j, BOUND] * reach
+        lo_j, hi_j = vs[j, 0] - vs[j, BOUND] * reach, vs[j, 0] + vs[j, BOUND] * reach
         top = max(top, lo_j)
         low += lo_j
         high += max(hi_j, 0.0)
-        bound += ps[j, BOUND]
+        bound += vs[j, BOUND]
     if kind == 1 and n != 1.0:  # super-elliptic: at least its largest member, weights as Eq. 4's
         low = top
         if top > 0.0:
             bound = 0.0
             for i in range(size):
                 j = b + int(p[q + i])
-                hi_j = max(vs[j, 0] + ps[j, BOUND] * reach, 0.0)
-                bound += min(1.0, (hi_j / top) ** (n - 1.0)) * ps[j, BOUND]
+                hi_j = max(vs[j, 0] + vs[j, BOUND] * reach, 0.0)
+                bound += min(1.0, (hi_j / top) ** (n - 1.0)) * vs[j, BOUND]
     return low, high, bound
 
 
 @kernel
-def controlled_bound(vs, ps, b, k, p, o, reach):
+def controlled_bound(vs, b, k, p, o, reach):
     """The field is a max over candidates (pairs, groups, single children): a candidate whose
     highest stays below another's lowest over the region never wins there, and the bound is
     the largest of the others' (each the sum of its members', Eq. 4's weights for a group)."""
@@ -161,7 +159,7 @@ def controlled_bound(vs, ps, b, k, p, o, reach):
         bound = 0.0
         npairs = int(p[o])
         for q in range(npairs):
-            lo, hi, lip = _candidate(vs, ps, b, p, o + 1 + 2 * q, 2, 1.0, reach, 0)
+            lo, hi, lip = _candidate(vs, b, p, o + 1 + 2 * q, 2, 1.0, reach, 0)
             best_low = max(best_low, lo)
             if rnd == 1 and hi >= best_low:
                 bound = max(bound, lip)
@@ -170,18 +168,17 @@ def controlled_bound(vs, ps, b, k, p, o, reach):
         q += 1
         for _ in range(ngroups):
             size = int(p[q + 1])
-            lo, hi, lip = _candidate(vs, ps, b, p, q + 2, size, p[q], reach, 1)
+            lo, hi, lip = _candidate(vs, b, p, q + 2, size, p[q], reach, 1)
             best_low = max(best_low, lo)
             if rnd == 1 and hi >= best_low:
                 bound = max(bound, lip)
             q += 2 + size
         for i in range(int(p[q])):
-            lo, hi, lip = _candidate(vs, ps, b, p, q + 1 + i, 1, 1.0, reach, 2)
+            lo, hi, lip = _candidate(vs, b, p, q + 1 + i, 1, 1.0, reach, 2)
             best_low = max(best_low, lo)
             if rnd == 1 and hi >= best_low:
                 bound = max(bound, lip)
-    ps[b, BOUND] = bound
-    ps[b, BELOW] = ps[b, ABOVE] = 0.0  # (the engine's own, from the value and bound)
+    return bound, 0.0, 0.0
 
 
 @kernel

@@ -7,7 +7,8 @@ import numpy as np
 
 from ..checks import Number
 from ..jit import kernel
-from .base import ABOVE, BELOW, BOUND, ISO, Node, Operator, OperatorKernels, register
+from . import kmath
+from .base import BOUND, ISO, Node, Operator, OperatorKernels, register
 from .params import Param
 
 
@@ -45,17 +46,17 @@ def difference_combine(vs, b, k, p, o, mode):
 
 
 @kernel
-def difference_bound(vs, ps, b, k, p, o, reach):
+def difference_bound(vs, b, k, p, o, reach):
     """Left to right, as :func:`difference_combine`: over the region the running min f and the
     next term y = 1 - f_j stay within their values +- L reach; a term that stays at least the
     rounding band above f leaves f as it is (its bound is dropped), one that stays that far
     below replaces it (so does its bound), otherwise the bound is the larger of the two.  The
-    result stays below ISO as far as any term does."""
+    result stays below ISO as far as any term does (1 - f_j as far as f_j stays above)."""
     r = p[o]
-    f, bound = vs[b, 0], ps[b, BOUND]
-    below, above = ps[b, BELOW], ps[b, ABOVE]
+    f, bound = vs[b, 0], vs[b, BOUND]
+    below, above = kmath.safe_distances(vs, b)
     for j in range(b + 1, b + k):
-        y, bound_y = 1.0 - vs[j, 0], ps[j, BOUND]
+        y, bound_y = 1.0 - vs[j, 0], vs[j, BOUND]
         if y - bound_y * reach >= f + bound * reach + r:
             pass
         elif f - bound * reach >= y + bound_y * reach + r:
@@ -63,11 +64,10 @@ def difference_bound(vs, ps, b, k, p, o, reach):
         else:
             bound = max(bound, bound_y)
         f = rounded_min(f, y, r)[0]
-        # 1 - f_j stays below ISO as far as f_j stays above it; the (rounded) min stays below
-        # as far as any term does, above as far as all do (sharp only: rounding lowers it)
-        below, above = max(below, ps[j, ABOVE]), min(above, ps[j, BELOW])
-    ps[b, BOUND] = bound
-    ps[b, BELOW], ps[b, ABOVE] = below, above if r == 0.0 else 0.0
+        below_j, above_j = kmath.safe_distances(vs, j)
+        # the (rounded) min stays above ISO as far as all terms do, if sharp (rounding lowers it)
+        below, above = max(below, above_j), min(above, below_j)
+    return bound, below, above if r == 0.0 else 0.0
 
 
 @kernel

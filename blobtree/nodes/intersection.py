@@ -16,8 +16,8 @@ def intersection_combine(vs, b, k, p, o, mode):
 
 
 @kernel
-def intersection_bound(vs, ps, b, k, p, o, reach):
-    kmath.select_bound(vs, ps, b, k, reach, False)
+def intersection_bound(vs, b, k, p, o, reach):
+    return kmath.select_bound(vs, b, k, reach, False)
 
 
 @kernel

@@ -161,18 +161,22 @@ def select(vs, b, k, largest):
 
 
 @kernel
-def safe_distances(f, bound):
-    """How far from a point a field surely stays below and above ISO, from its value f there
-    and a bound on its gradient: (ISO - f) / bound on the side f is on (infinite for a bound
-    of 0), 0 on the other."""
-    if f == ISO:
-        return 0.0, 0.0
+def safe_distances(vs, j):
+    """How far from the region's point the field of value-stack row j surely stays below and
+    above ISO: the larger of what its operator proved (vs[j, BELOW], vs[j, ABOVE]) and what its
+    value f and bound L give, |ISO - f| / L on the side f is on (infinite for L = 0)."""
+    f, bound = vs[j, 0], vs[j, BOUND]
     gap = abs(f - ISO) / bound if bound > 0.0 else math.inf
-    return (gap, 0.0) if f < ISO else (0.0, gap)
+    below, above = vs[j, BELOW], vs[j, ABOVE]
+    if f < ISO:
+        below = max(below, gap)
+    elif f > ISO:
+        above = max(above, gap)
+    return below, above
 
 
 @kernel
-def select_bound(vs, ps, b, k, reach, largest):
+def select_bound(vs, b, k, reach, largest):
     """Union's and intersection's bound over a region of diameter reach: child j stays within
     f_j +- L_j reach there, so a child whose highest stays below another's lowest (union; the
     reverse for intersection) never wins in the region and its bound L_j is dropped.  A max
@@ -183,18 +187,20 @@ def select_bound(vs, ps, b, k, reach, largest):
     any_below = any_above = 0.0
     for j in range(b, b + k):
         if largest:
-            edge = max(edge, vs[j, 0] - ps[j, BOUND] * reach)
+            edge = max(edge, vs[j, 0] - vs[j, BOUND] * reach)
         else:
-            edge = min(edge, vs[j, 0] + ps[j, BOUND] * reach)
-        all_below, any_below = min(all_below, ps[j, BELOW]), max(any_below, ps[j, BELOW])
-        all_above, any_above = min(all_above, ps[j, ABOVE]), max(any_above, ps[j, ABOVE])
+            edge = min(edge, vs[j, 0] + vs[j, BOUND] * reach)
+        below, above = safe_distances(vs, j)
+        all_below, any_below = min(all_below, below), max(any_below, below)
+        all_above, any_above = min(all_above, above), max(any_above, above)
     bound = 0.0
     for j in range(b, b + k):
-        reach_j = ps[j, BOUND] * reach
+        reach_j = vs[j, BOUND] * reach
         if (vs[j, 0] + reach_j >= edge) if largest else (vs[j, 0] - reach_j <= edge):
-            bound = max(bound, ps[j, BOUND])
-    ps[b, BOUND] = bound
-    ps[b, BELOW], ps[b, ABOVE] = (all_below, any_above) if largest else (any_below, all_above)
+            bound = max(bound, vs[j, BOUND])
+    if largest:
+        return bound, all_below, any_above
+    return bound, any_below, all_above
 
 
 @kernel

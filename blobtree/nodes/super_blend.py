@@ -6,7 +6,7 @@ import numpy as np
 
 from ..checks import Number
 from ..jit import kernel
-from .base import ABOVE, BELOW, BOUND, Node, Operator, OperatorKernels, register, weighted_color
+from .base import BOUND, Node, Operator, OperatorKernels, register, weighted_color
 from .params import LARGEST_N, Param
 
 
@@ -44,22 +44,21 @@ def super_combine(vs, b, k, p, o, mode):
 
 
 @kernel
-def super_bound(vs, ps, b, k, p, o, reach):
+def super_bound(vs, b, k, p, o, reach):
     """The gradient is sum w_j grad f_j with w_j = (f_j / f)^(n - 1) <= 1; over the region f is
     at least every child's lowest, f_j at most its highest, so w_j <= (highest_j / f_low)^(n - 1):
     for large n a child that stays below another adds next to nothing to the bound."""
     n = p[o]
     low = 0.0
     for j in range(b, b + k):
-        low = max(low, vs[j, 0] - ps[j, BOUND] * reach)
+        low = max(low, vs[j, 0] - vs[j, BOUND] * reach)
     bound = 0.0
     for j in range(b, b + k):
         w = 1.0
         if low > 0.0:
-            w = min(1.0, (max(vs[j, 0] + ps[j, BOUND] * reach, 0.0) / low) ** (n - 1.0))
-        bound += w * ps[j, BOUND]
-    ps[b, BOUND] = bound
-    ps[b, BELOW] = ps[b, ABOVE] = 0.0  # (the engine's own, from the value and bound)
+            w = min(1.0, (max(vs[j, 0] + vs[j, BOUND] * reach, 0.0) / low) ** (n - 1.0))
+        bound += w * vs[j, BOUND]
+    return bound, 0.0, 0.0
 
 
 @kernel

@@ -15,8 +15,8 @@ def union_combine(vs, b, k, p, o, mode):
 
 
 @kernel
-def union_bound(vs, ps, b, k, p, o, reach):
-    kmath.select_bound(vs, ps, b, k, reach, True)
+def union_bound(vs, b, k, p, o, reach):
+    return kmath.select_bound(vs, b, k, reach, True)
 
 
 @kernel

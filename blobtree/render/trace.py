@@ -95,6 +95,21 @@ def _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, ta, fa, tb, fb, tol, vs
 
 
 @kernel
+def _segment(code, params, boxes, lips, values, x, y, z, dx, dy, dz, length, vstack, pstack):
+    """(f - ISO at the point, the bound along the segment, how far along it the field surely
+    stays below ISO) for a new candidate segment: in one pass with ``values`` (a CSG root), else
+    the field and a plain bound (cheaper for a program of blends)."""
+    if values:
+        f, lam, below, _ = interp.lipschitz_segment(code, params, boxes, lips, x, y, z, dx, dy,
+                                                    dz, length, True, vstack, pstack)
+        return f - ISO, lam, below
+    f = interp.eval_point(code, params, boxes, x, y, z, 0, vstack, pstack)
+    lam = interp.lipschitz_segment(code, params, boxes, lips, x, y, z, dx, dy, dz, length, False,
+                                   vstack, pstack)[1]
+    return f - ISO, lam, 0.0
+
+
+@kernel
 def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, eps_rel,
           delta0, vstack, pstack):
     """(First t in [t0, t1] where the field reaches ISO along the unit-direction ray, or -1;
@@ -108,12 +123,11 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
     inside its candidate segment, unless the steps it allows are short next to what is left of
     the segment (the bound is loose there): then a shorter segment takes a new bound.
     """
+    values = interp.bounds_use_values(code)
     t = t0
     delta = delta0
-    f, lam, below, _ = interp.lipschitz_segment(code, params, boxes, lips, ox + t * dx,
-                                                oy + t * dy, oz + t * dz, dx, dy, dz,
-                                                min(delta, t1 - t), vstack, pstack)
-    f -= ISO
+    f, lam, below = _segment(code, params, boxes, lips, values, ox + t * dx, oy + t * dy,
+                             oz + t * dz, dx, dy, dz, min(delta, t1 - t), vstack, pstack)
     if f >= 0.0:
         return t, 0.0, t
     low = f
@@ -134,14 +148,12 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
             new_segment = tn >= te or te - tn > REBOUND * last
             if new_segment:
                 delta = SEGMENT_GROWTH * (tn - ts) if tn >= te else GROWTH * last
-                fn, lam, below, _ = interp.lipschitz_segment(code, params, boxes, lips,
-                                                             ox + tn * dx, oy + tn * dy,
-                                                             oz + tn * dz, dx, dy, dz,
-                                                             min(delta, t1 - tn), vstack, pstack)
+                fn, lam, below = _segment(code, params, boxes, lips, values, ox + tn * dx,
+                                          oy + tn * dy, oz + tn * dz, dx, dy, dz,
+                                          min(delta, t1 - tn), vstack, pstack)
             else:
                 fn = interp.eval_point(code, params, boxes, ox + tn * dx, oy + tn * dy,
-                                       oz + tn * dz, 0, vstack, pstack)
-            fn -= ISO
+                                       oz + tn * dz, 0, vstack, pstack) - ISO
             if fn >= 0.0:
                 t_hit = _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, t, f, tn, fn,
                                 REFINE_TOL * eps, vstack, pstack)
@@ -195,16 +207,25 @@ def march_cone(code, params, boxes, lips, ex, ey, ez, ax, ay, az, tan_a, t, t1, 
     f(t) + L (step + (t + step) tan_a) < ISO.  Every ray in the cone may start at the returned
     depth (its own parameter is never less than its axis depth).
     """
+    values = interp.bounds_use_values(code)
     delta = 0.05 * (t1 - t) + 1e-12
     while t < t1:
         te = min(t + delta, t1)
         r = te * tan_a
         px, py, pz = ex + t * ax, ey + t * ay, ez + t * az
         qx, qy, qz = ex + te * ax, ey + te * ay, ez + te * az
-        _, lam, below, _ = interp.bound_box_at(code, params, boxes, lips, min(px, qx) - r,
-                                               min(py, qy) - r, min(pz, qz) - r,
-                                               max(px, qx) + r, max(py, qy) + r,
-                                               max(pz, qz) + r, px, py, pz, vstack, pstack)
+        lox, loy, loz = min(px, qx) - r, min(py, qy) - r, min(pz, qz) - r
+        hix, hiy, hiz = max(px, qx) + r, max(py, qy) + r, max(pz, qz) + r
+        if values:
+            _, lam, below, _ = interp.bound_box_at(code, params, boxes, lips, lox, loy, loz, hix,
+                                                   hiy, hiz, px, py, pz, vstack, pstack)
+        else:
+            lam = interp.lipschitz_box(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz,
+                                       vstack, pstack)
+            below = 0.0
+            if lam > 0.0:  # (the field is needed only then)
+                below = (ISO - interp.eval_point(code, params, boxes, px, py, pz, 0, vstack,
+                                                 pstack)) / lam
         step = te - t
         if lam > 0.0:
             step = min(step, (below - t * tan_a) / (1.0 + tan_a))
