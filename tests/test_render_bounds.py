@@ -85,3 +85,23 @@ def test_csg_bound_drops_the_child_that_cannot_set_the_field(tree):
     assert lower >= 20  # (30-133 of the 300 boxes, by operator)
     if not isinstance(tree, bt.SuperBlend | bt.ControlledBlend):
         assert further >= 10
+
+
+@pytest.mark.parametrize("tree", [_A + _B, bt.difference(_A, _B, smooth=0.1)])
+def test_program_bound_at_gives_the_field_a_bound_and_safe_distances(tree):
+    """``Program.bound_at`` (the mesher's cull), by either path (a blend root takes the plain
+    bound and the batch field, a CSG root the value-aware pass): the field at each box's point,
+    a bound over the box, and distances within which the field stays below / above 0.5."""
+    prog = tree.program()
+    rng = np.random.default_rng(3)
+    c = rng.uniform(-1.0, 1.2, (200, 3))
+    e = rng.uniform(0.01, 0.1, (200, 3))
+    f, bound, below, above = prog.bound_at(c - e, c + e, c).T
+    assert np.allclose(f, prog.field(c), rtol=0, atol=1e-12)
+    for q in range(len(c)):
+        P = c[q] + rng.uniform(-1.0, 1.0, (300, 3)) * e[q]
+        fp, gp, _ = prog.evaluate(P)
+        assert np.linalg.norm(gp, axis=1).max() <= bound[q] * (1 + 1e-9) + 1e-12
+        distance = np.linalg.norm(P - c[q], axis=1)
+        assert np.all(fp[distance < below[q] * (1 - 1e-9)] <= 0.5 + 1e-12)
+        assert np.all(fp[distance < above[q] * (1 - 1e-9)] >= 0.5 - 1e-12)

@@ -27,7 +27,7 @@ import numpy as np
 
 from .. import geometry as geo
 from ..fields import FALLOFFS
-from ..nodes.base import Node, Operator, Paint, Primitive
+from ..nodes.base import ISO, Node, Operator, Paint, Primitive
 from ..nodes.warp import Warp
 from ..parallel import parallel_for
 from . import batch as B
@@ -155,6 +155,11 @@ class Program:
         if not len(lo) == len(hi) == len(at):
             raise ValueError(f"lo, hi and at must hold as many points, got {len(lo)}, "
                              f"{len(hi)} and {len(at)}")
+        if not K.bounds_use_values(self.code):  # no CSG root: the plain bound and batch field
+            f, lip = self.field(at), self.lipschitz(lo, hi)
+            gap = np.divide(np.abs(f - ISO), lip, out=np.full(len(f), np.inf), where=lip > 0)
+            return np.stack([f, lip, np.where(f < ISO, gap, 0.0), np.where(f > ISO, gap, 0.0)],
+                            axis=1)
         out = np.empty((len(lo), 4))
         parallel_for(K.bound_range, len(lo), self.code, self.params, self.boxes, self.lips,
                      lo, hi, at, self.depth, out)
