@@ -26,8 +26,8 @@ def test_engine_equals_reference(tree, seed):
 
 def _is_sum_free(tree: bt.Node) -> bool:
     """Trees without blends stay in [0, 1]; sums may exceed 1."""
-    return not any(isinstance(n, bt.Blend | bt.SuperBlend | bt.ControlledBlend)
-                   for n in tree.walk())
+    sums = bt.Blend | bt.SuperBlend | bt.ControlledBlend | bt.GradientBlend
+    return not any(isinstance(n, sums) for n in tree.walk())
 
 
 @given(trees(smooth_only=True), st.integers(0, 2**31))

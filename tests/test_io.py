@@ -38,6 +38,7 @@ def test_every_node_type_round_trips(tmp_path):
         bt.blend(*parts), bt.super_blend(a, a.translate(1, 0, 0), n=400),
         bt.intersection(a, a.scale(2)), bt.difference(a.scale(1, 2, 3), a),
         bt.controlled_blend([a, a, a], pairs=[(0, 1), (1, 2)]),
+        bt.gradient_blend(a, parts[1], power=2.0, contact=0.2),
         a.rotate("x", 30).rotate((1, 1, 0), 12.5), parts[2].bend(30, 1.0).twist(20).taper(0.1),
         a.color((0.1, 0.2, 0.3)),
         a.texture(np.arange(24, dtype=np.uint8).reshape(2, 4, 3), wrap="clamp"),

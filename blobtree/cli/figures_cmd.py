@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import inspect
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import click
 
@@ -14,8 +17,12 @@ from . import compile_notice
 
 #: The paper's figures by number, then those beyond the paper by name.
 ALL = [*sorted([*FIGURES, *TEXTURE_FIGURES], key=int), *BEYOND]
-#: Figures whose models draw random numbers (bumps, canal spine bends, textures).
-SEEDED = {"8", "9", "11", "14", *BEYOND}
+
+
+def _seeded(make: Callable[..., Any], seed: int) -> Any:
+    """``make(seed)`` where the figure's model draws random numbers (bumps, canal spine bends,
+    textures: its builder takes a seed), else ``make()``."""
+    return make(seed) if "seed" in inspect.signature(make).parameters else make()
 
 
 @click.command()
@@ -35,16 +42,16 @@ SEEDED = {"8", "9", "11", "14", *BEYOND}
 def figures(out_dir: Path, height: int, samples: int, shadows: bool, look: str,
             only: tuple[str, ...], seed: int) -> None:
     """Render the paper's figures (3-11 and 14 ray traced; 12, the textures, drawn) and those
-    beyond it (species, grown spines, pigment patterns)."""
+    beyond it (species, grown spines, joins, group blends, pigment patterns)."""
     out_dir.mkdir(parents=True, exist_ok=True)
     for key in only or ALL:
         start = time.perf_counter()
         path = out_dir / f"figure-{key}.png"
         fig = {**FIGURES, **TEXTURE_FIGURES, **BEYOND}[key]
         if isinstance(fig, TextureFigure):
-            save_image(fig.draw(seed) if key in SEEDED else fig.draw(), path)
+            save_image(_seeded(fig.draw, seed), path)
         else:
-            tree = fig.build(seed) if key in SEEDED else fig.build()
+            tree = _seeded(fig.build, seed)
             aspect = fig.aspect(tree)
             width = max(16, round(height * aspect))
             camera = framed_camera(tree.program(), width, height, view=fig.view, up=fig.up,

@@ -31,7 +31,8 @@ from .dispatch import (
     K_PUSHPT,
     K_WARP,
     LIPSCHITZ,
-    SUM,
+    MAX,
+    SCALED,
     VALUE_BOUND,
     combine,
     kind_of,
@@ -239,16 +240,16 @@ def _carry(kind, op, p, o, lip, lox, loy, loz, hix, hiy, hiz, scratch):
 
 
 @kernel
-def _rule(op, vs, col, b, sp):
+def _rule(op, p, o, vs, col, b, sp):
     """An operator's ``LIPSCHITZ`` rule over its children's bounds in vs[b:sp, col]."""
     acc = 0.0
-    if LIPSCHITZ[op] == SUM:
-        for j in range(b, sp):
-            acc += vs[j, col]
-    else:
+    if LIPSCHITZ[op] == MAX:
         for j in range(b, sp):
             acc = max(acc, vs[j, col])
-    return acc
+        return acc
+    for j in range(b, sp):
+        acc += vs[j, col]
+    return acc * p[o] if LIPSCHITZ[op] == SCALED else acc
 
 
 @kernel
@@ -274,7 +275,7 @@ def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox,
             i += 1
         elif kind == K_OPERATOR:
             b = sp - code[i, 3]
-            vs[b, 0] = _rule(op, vs, 0, b, sp)
+            vs[b, 0] = _rule(op, params, code[i, 1], vs, 0, b, sp)
             sp = b + 1
             i += 1
         elif kind == K_BOX or kind == K_PUSHPT or kind == K_WARP:
@@ -344,7 +345,7 @@ def _bounded(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox, o
             reach = math.sqrt((hix - lox) ** 2 + (hiy - loy) ** 2 + (hiz - loz) ** 2)
             bound, below, above = op_bound(op, vs, b, k, p, o, reach)  # before combine
             if bound < 0.0:
-                bound = _rule(op, vs, BOUND, b, sp)
+                bound = _rule(op, p, o, vs, BOUND, b, sp)
             combine(op, vs, b, k, p, o, 0)
             vs[b, BOUND], vs[b, BELOW], vs[b, ABOVE] = bound, below, above
             sp = b + 1

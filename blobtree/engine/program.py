@@ -27,7 +27,7 @@ import numpy as np
 
 from .. import geometry as geo
 from ..fields import FALLOFFS
-from ..nodes.base import ISO, Node, Operator, Paint, Primitive
+from ..nodes.base import ISO, REGISTRY, Node, Operator, Paint, Primitive
 from ..nodes.warp import Warp
 from ..parallel import parallel_for
 from . import batch as B
@@ -247,7 +247,7 @@ class _Emitter:
 
     def operator(self, node: Operator, M: np.ndarray, look: int) -> geo.Box:
         op = opcode(node)
-        children = _distinct(node)
+        children = node.program_children()
         head = self.add(OP_BOX)
         if node.ASSOCIATIVE:
             box = self.group(op, node, children, M, look)
@@ -324,13 +324,6 @@ class _Emitter:
         )
 
 
-def _distinct(node: Operator) -> list[Node]:
-    """The children the program evaluates: an idempotent operator's repeated children once."""
-    if node.IDEMPOTENT:
-        return list(dict.fromkeys(node.children))
-    return list(node.children)
-
-
 def _box6(box: geo.Box | None) -> np.ndarray:
     if box is None:
         return np.array([-np.inf] * 3 + [np.inf] * 3)
@@ -356,9 +349,15 @@ def expanded_size(tree: Node) -> int:
     """About how many instructions ``tree`` compiles to, counted over its distinct nodes (a
     shared subtree counts at each of its places, as the program repeats it)."""
     size: dict[int, int] = {}
+
+    def size_of(node: Node) -> int:  # a program child may be a child moved by new affine nodes
+        while id(node) not in size and node.KIND == "affine":
+            node = node.child
+        return size[id(node)]
+
     for node in tree.unique():
-        kids = _distinct(node) if node.KIND == "operator" else node.children
-        inner = sum(size[id(c)] for c in kids)
+        kids = node.program_children() if node.KIND == "operator" else node.children
+        inner = sum(size_of(c) for c in kids)
         own = {"affine": 0, "primitive": 1, "paint": 2, "warp": 3}.get(node.KIND, 2)
         if node.KIND == "operator" and getattr(node, "ASSOCIATIVE", False):
             own += 2 * max(len(kids) // GROUP, 1)
@@ -391,5 +390,15 @@ def compile_tree(tree: Node) -> Program:
     for node in tree.unique():  # images first, so no subtree's instructions hold one
         if hasattr(node, "image_block"):
             em.image_offset(node)
-    em.emit(tree, geo.IDENTITY)
+    em.emit(_value_root(tree), geo.IDENTITY)
     return em.program(tree)
+
+
+def _value_root(tree: Node) -> Node:
+    """The tree to emit: under a one-child union (the same field) where it holds an operator
+    that ``WANTS_VALUES`` below a root whose bound takes no values, so that the tracer and the
+    mesher take the value-aware bound pass (``interp.bounds_use_values`` reads the root)."""
+    root_takes_values = tree.KIND == "operator" and tree.KERNELS.bound is not None
+    if root_takes_values or not any(getattr(n, "WANTS_VALUES", False) for n in tree.unique()):
+        return tree
+    return REGISTRY["union"](tree)

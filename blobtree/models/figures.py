@@ -22,6 +22,7 @@ from .murex import (
     bumps,
     canal_spines,
     generating_surface,
+    gradient_join,
     inside_generating_surface,
     inside_whorl,
     instance_angle,
@@ -319,12 +320,54 @@ def patterns_figure(seed: int = 0) -> np.ndarray:
     return pattern_sheet(seed=seed)
 
 
+def joins_figure(seed: int = 0) -> Node:
+    """Figure 8's two sections and randomly scaled bumps joined three ways: the sum (the
+    whorl's far-reaching field blows the bumps up into ridges), the paper's super-elliptic
+    blend n = 400 (a sharp crease round each bump) and the gradient-based blend (ours,
+    :func:`~blobtree.models.murex.gradient_join`: each bump as it is, a fillet round its
+    base)."""
+    k = BUMP_INTERVAL
+    secs = sections(canal_sections=0)[k:k + 2]
+    lumps = bumps(seed, intervals=[k])
+    base = controlled_blend(secs, pairs=[(0, 1)])
+    joined = controlled_blend([gradient_join(secs[0], lumps), secs[1]], pairs=[(0, 1)])
+    return _row([blend(base, *lumps), super_blend(base, *lumps, n=BUMP_BLEND_N), joined],
+                _outward_view(6 * k + 2), SHELL_UP)
+
+
+#: The sections blended together in :func:`groups_figure`: each with the next two.
+GROUP_SIZE = 3
+#: ... by the super-elliptic blend of this exponent.
+GROUP_N = 3.0
+
+
+def groups_figure() -> Node:
+    """Figure 5's point whorl with Eq. 10's controlled blend (left: each section with its
+    neighbour, f_i + f_j) and with group controlled blends (right: every three consecutive
+    sections as one group, by the super-elliptic blend n = 3), which the paper's controlled
+    blend, two objects at a time by the sum, could not express: each section meets both its
+    neighbours at once, the whorls still stay apart, and n = 3 pinches the joins, so each
+    section swells between them like a stage of growth."""
+    secs = sections(canal_sections=0)
+    pairs = [(j, j + 1) for j in range(len(secs) - 1)]
+    groups = [tuple(range(j, j + GROUP_SIZE)) for j in range(len(secs) - GROUP_SIZE + 1)]
+    return _row([controlled_blend(secs, pairs=pairs),
+                 controlled_blend(secs, groups=groups, n=GROUP_N)], APERTURE_VIEW, SHELL_UP)
+
+
 #: Figures beyond the paper (its Section 4's open problems, solved): models and images.
 BEYOND: dict[str, Figure | TextureFigure] = {
     "species": Figure(species_figure, "Shells from data: Murex cabritii, Chicoreus ramosus and "
                                       "Oliva porphyria, each built from its spec."),
     "grown": Figure(grown_spines_figure, "Spines placed by Table 1 (left) and grown by an "
                                          "activator-inhibitor along the lip (right)."),
+    "joins": Figure(joins_figure, "Bumps joined to the whorl by the sum (left), the "
+                                  "super-elliptic blend n = 400 (centre, the paper) and the "
+                                  "gradient-based blend (right).",
+                    view=_outward_view(6 * BUMP_INTERVAL + 2)),
+    "groups": Figure(groups_figure, "Sections blended in pairs by the sum (left, Eq. 10) and "
+                                    "in groups of three by the super-elliptic blend n = 3 "
+                                    "(right)."),
     "patterns": TextureFigure(patterns_figure, "Pigment grown by Meinhardt's models: stripes, "
                                                "waves, the triangles of Oliva porphyria, bands."),
 }

@@ -17,7 +17,7 @@ each documented there); the constants below are read from it.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
 
@@ -32,7 +32,9 @@ from ..nodes import (
     blend,
     controlled_blend,
     difference,
+    gradient_blend,
     super_blend,
+    union,
 )
 from ..texture import HelicoSurface
 from .helico import place
@@ -62,6 +64,8 @@ INSTANCES = DEFAULT.instances  #: 126 instances, 0..125,
 VARICES = SECTIONS  #: one varix at the end of every section, over the join with the next.
 CANAL_SECTIONS = DEFAULT.canal_sections  #: the canal only in the last 1 1/3 whorls (Sec. 3.1).
 BUMP_BLEND_N = DEFAULT.bump_blend_n  #: super-elliptic blend of the bumps (Figure 8).
+#: The gradient-based join of the bumps (ours) blends only where both fields exceed this.
+GRADIENT_CONTACT = 0.4
 PREVIOUS_WHORL = DEFAULT.previous_whorl  #: B_w 94..108, kept intact by Eq. 14.
 #: Albedo of the parts (Figure 13's cream shell, brownish spines, pink inside).
 COLOURS = dict(zip(("body", "varix", "bump", "inside"), DEFAULT.colours, strict=True))
@@ -228,17 +232,25 @@ def sections(canal_sections: int | None = None, spec: ShellSpec = DEFAULT) -> li
 
 
 def body_whorl(canal_sections: int | None = None, spec: ShellSpec = DEFAULT,
-               texture: np.ndarray | None = None, period: float | None = None) -> Node:
+               texture: np.ndarray | None = None, period: float | None = None,
+               colour: tuple | None = None, lumps: Sequence[Sequence[Node]] | None = None
+               ) -> Node:
     """Eq. 10: B_m = c(L_blendpairs)(L_Blobtrees): each section blends with its two neighbours
     along the spiral only, so adjacent whorls do not blend.  With ``texture`` (Figure 12(a)),
     each section is textured separately by the bounding surface :func:`body_mapping` (Section
     3.4, one copy per ``period`` degrees, default a section); the joins lie under the
-    varices."""
+    varices.  ``colour``: each section painted this plain colour instead.  ``lumps``: per
+    section, bumps joined to it by :func:`gradient_join` (after its texture or colour, so they
+    keep their own)."""
     secs = sections(canal_sections, spec)
     if texture is not None:
         wrap = SHELL_TEXTURES["body"].wrap
         mapping = body_mapping(spec, period)
         secs = [s.texture(texture, mapping=mapping, wrap=wrap) for s in secs]
+    elif colour is not None:
+        secs = [s.color(colour) for s in secs]
+    if lumps is not None:
+        secs = [gradient_join(s, list(b)) if b else s for s, b in zip(secs, lumps, strict=True)]
     if len(secs) == 1:
         return secs[0]
     return controlled_blend(secs, pairs=blend_pairs(spec, canal_sections))
@@ -404,6 +416,22 @@ def bump_set(whorl_index: int, theta: float, rng: np.random.Generator | None = N
         )
         out.append(place(to_shell_frame(bump), theta, spec.spiral))
     return out
+
+
+def gradient_join(section: Node, lumps: list[Node]) -> Node:
+    """A section and its bumps joined by the gradient-based blend (``bumps.join = "gradient"``,
+    ours): the union of the bumps (they do not swell into one another, as with n = 400) stands
+    on the whorl where their gradients face the same way as its, and blends into it only in the
+    crease around each base, where both fields are above ``GRADIENT_CONTACT``; so no bump is
+    blown up by the whorl's far-reaching field (the paper's reason for n = 400) and none meets
+    it in a sharp crease.  The step of the gradients is a fifth of the steepest bump's
+    1 / Lipschitz bound (the bumps' scale), the floor a twentieth of the gentlest slope of a
+    bump or a primitive of the section."""
+    slopes = [b.lipschitz() for b in lumps]
+    floor = 0.05 * min(*slopes, *(c.lipschitz() for c in section.walk()
+                                  if c.KIND == "primitive"))
+    return gradient_blend(section, union(*lumps) if len(lumps) > 1 else lumps[0],
+                          step=0.2 / max(slopes), floor=floor, contact=GRADIENT_CONTACT)
 
 
 def bumps(seed: int | np.random.Generator | None = 0, intervals: range | list[int] | None = None,
@@ -592,7 +620,9 @@ def _pattern_texture(name: str, seed: int, spec: ShellSpec, cells: int = 512) ->
 
 def outer_shell(seed: int = 0, spec: ShellSpec = DEFAULT, textured: bool = True) -> Node:
     """B_shell of Eq. 15: the main body whorl with its varices and canal spines blended in, and
-    the bumps joined by the super-elliptic blend n = 400 (Section 3.2).
+    the bumps joined by the super-elliptic blend n = 400 (Section 3.2), or with ``bumps.join =
+    "gradient"`` each section's bumps joined to it by the gradient-based blend (ours,
+    :func:`gradient_join`).
 
     ``textured``: the spec's look: the four textures of Figure 12 (generated from ``seed``) by
     the paper's two methods (Section 3.4): (a) per section by a bounding surface, (b)-(d) on the
@@ -602,21 +632,30 @@ def outer_shell(seed: int = 0, spec: ShellSpec = DEFAULT, textured: bool = True)
     bump_rng, spine_rng = np.random.default_rng(bump_seq), np.random.default_rng(spine_seq)
     body_c, varix_c, bump_c, _ = spec.colours
     look = spec.texture if textured else "plain"
-    if look == "paper":
-        tex = shell_textures(seed)
-        body = body_whorl(spec=spec, texture=tex["body"])
-        canal_wrap, bump_wrap = SHELL_TEXTURES["canal_spine"].wrap, SHELL_TEXTURES["bump"].wrap
+    tex = shell_textures(seed) if look == "paper" else None
+
+    def paint_bump(b: Node) -> Node:
+        return b.texture(tex["bump"], wrap=SHELL_TEXTURES["bump"].wrap) if tex else \
+            b.color(bump_c)
+
+    if spec.bump_join == "gradient":  # per section: none on section 0 (bumps() starts at 1)
+        per_section = [[]] + [[paint_bump(b) for b in bumps(bump_rng, [k], spec)]
+                              for k in range(1, spec.sections)]
+        lumps = []
+    else:
+        per_section, lumps = None, [paint_bump(b) for b in bumps(bump_rng, spec=spec)]
+    if tex:
+        body = body_whorl(spec=spec, texture=tex["body"], lumps=per_section)
+        canal_wrap = SHELL_TEXTURES["canal_spine"].wrap
         spiny = varices(spec, tex["varix_spine"]) + [
             s.texture(tex["canal_spine"], wrap=canal_wrap) for s in canal_spines(spine_rng, spec)]
-        lumps = [b.texture(tex["bump"], wrap=bump_wrap) for b in bumps(bump_rng, spec=spec)]
     else:
         if look == "plain":
-            body = body_whorl(spec=spec).color(body_c)
+            body = body_whorl(spec=spec, colour=body_c, lumps=per_section)
         else:
             body = body_whorl(spec=spec, texture=_pattern_texture(look, seed, spec),
-                              period=spec.instances * spec.theta_s)
+                              period=spec.instances * spec.theta_s, lumps=per_section)
         spiny = [v.color(varix_c) for v in varices(spec) + canal_spines(spine_rng, spec)]
-        lumps = [b.color(bump_c) for b in bumps(bump_rng, spec=spec)]
     main = blend(body, *spiny) if spiny else body
     return super_blend(main, *lumps, n=spec.bump_blend_n) if lumps else main
 

@@ -168,6 +168,10 @@ class ShellSpec:
                                 "bumps scaled by (zeta_x, zeta_y, zeta_z + this)")
     bump_blend_n: float = _spec("bumps", "n", Number(1.0, 1e4),
                                 "super-elliptic blend of the bumps with the shell (Eq. 4)")
+    bump_join: str = _spec("bumps", "join", Choice(("super_elliptic", "gradient")),
+                           "'super_elliptic': the bumps join the shell by bumps.n (the paper); "
+                           "'gradient': each section's bumps join it by the gradient-based "
+                           "blend (ours)")
     table_2: tuple = _spec("canal_spines", "table", ListOf(ListOf(_SIZE, 1, 64), 0, 12),
                            "Table 2: sizes of the canal spines of the last len(table) varices, "
                            "in order (the one at the opening last)")

@@ -24,6 +24,7 @@ from .controlled_blend import ControlledBlend, controlled_blend
 from .cylinder import Cylinder
 from .difference import Difference, difference
 from .ellipsoid import Ellipsoid
+from .gradient_blend import GradientBlend, gradient_blend
 from .intersection import Intersection, intersection
 from .point import Point
 from .ring import Disc, Torus
@@ -38,9 +39,9 @@ from .warp import Warp
 NODE_TYPES = REGISTRY
 
 __all__ = [
-    "Affine", "Bend", "Blend", "Color", "Cone", "ControlledBlend", "Cylinder", "Difference", "Disc",
-    "Ellipsoid", "ISO", "Intersection", "NODE_TYPES", "Node", "Operator", "Paint", "Point",
-    "Primitive", "REGISTRY", "Rotate", "Scale", "Segment", "SuperBlend", "Taper", "Texture",
-    "Torus", "Translate", "Twist", "Unary", "Union", "Warp", "blend", "check_points",
-    "controlled_blend", "difference", "intersection", "super_blend", "union",
+    "Affine", "Bend", "Blend", "Color", "Cone", "ControlledBlend", "Cylinder", "Difference",
+    "Disc", "Ellipsoid", "GradientBlend", "ISO", "Intersection", "NODE_TYPES", "Node", "Operator",
+    "Paint", "Point", "Primitive", "REGISTRY", "Rotate", "Scale", "Segment", "SuperBlend", "Taper",
+    "Texture", "Torus", "Translate", "Twist", "Unary", "Union", "Warp", "blend", "check_points",
+    "controlled_blend", "difference", "gradient_blend", "intersection", "super_blend", "union",
 ]

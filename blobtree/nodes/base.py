@@ -559,8 +559,9 @@ class Primitive(Node):
 #: "drop" (a zero changes nothing: remove it), "keep" (keep it as a ZERO instruction: its place or
 #: value matters) or "kill" (the operator is then zero everywhere in the region).
 ZERO_RULES = ("drop", "keep", "kill")
-#: How an operator's Lipschitz bound follows from its children's.
-LIPSCHITZ_RULES = ("sum", "max")
+#: How an operator's Lipschitz bound follows from its children's: their sum, their largest, or
+#: their sum times the operator's first parameter (``op_params()[0]``, a factor it derives).
+LIPSCHITZ_RULES = ("sum", "max", "scaled")
 
 
 class Operator(Node):
@@ -570,9 +571,10 @@ class Operator(Node):
     specialisation, see :data:`ZERO_RULES`), ``LIPSCHITZ`` (:data:`LIPSCHITZ_RULES`),
     ``ASSOCIATIVE`` (the compiler may regroup its children into a box hierarchy),
     ``IDEMPOTENT`` (a child repeated verbatim may be evaluated once), ``STACK`` (value-stack
-    rows it needs beyond its children's, usually 0) and ``SMOOTH`` (its gradient is continuous
-    where its children's are).  An operator of one child must be that child (specialisation
-    relies on it).
+    rows it needs beyond its children's, usually 0), ``SMOOTH`` (its gradient is continuous
+    where its children's are) and ``WANTS_VALUES`` (its ``LIPSCHITZ`` rule is far looser than
+    its value-aware ``bound``: a program holding it takes the value-aware pass throughout).
+    An operator of one child must be that child (specialisation relies on it).
     """
 
     KIND = "operator"
@@ -584,10 +586,18 @@ class Operator(Node):
     IDEMPOTENT: ClassVar[bool] = False
     STACK: ClassVar[int] = 0
     SMOOTH: ClassVar[bool] = False
+    WANTS_VALUES: ClassVar[bool] = False
 
     def op_params(self) -> list[float]:
         """The operator's parameters in the program (empty by default)."""
         return []
+
+    def program_children(self) -> list[Node]:
+        """The children the program evaluates, in order (its combine kernel's rows): by
+        default the children, an idempotent operator's repeated ones once."""
+        if self.IDEMPOTENT:
+            return list(dict.fromkeys(self.children))
+        return list(self.children)
 
     def _refs(self, P: np.ndarray, look: Any) -> Result:
         """Children's results stacked: f (k, N), g (k, N, 3), c (k, N, 3)."""
