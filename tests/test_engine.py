@@ -217,13 +217,15 @@ def test_segment_lipschitz_bounds_hold_on_random_trees(tree, seed, frac):
     vs, ps = K.scratch(prog.depth)
     code, params, boxes, lips = prog.arrays
     for o, d in zip(starts, dirs, strict=True):
-        f, bound, below, above = K.lipschitz_segment(code, params, boxes, lips, *o, *d, length,
-                                                     True, vs, ps)
         ts = np.linspace(0.0, length, 200)
         fq, gq, _ = tree.reference(o + ts[:, None] * d)
-        assert np.abs(gq @ d).max() <= bound * (1 + 1e-9) + 1e-12
-        assert np.all(fq[ts < below * (1 - 1e-9)] <= 0.5 + 1e-12)
-        assert np.all(fq[ts < above * (1 - 1e-9)] >= 0.5 - 1e-12)
+        for values in (True, False):  # the value-aware pass and the plain one
+            f, bound, below, above = K.lipschitz_segment(code, params, boxes, lips, *o, *d,
+                                                         length, values, vs, ps)
+            assert abs(f - fq[0]) <= 1e-12
+            assert np.abs(gq @ d).max() <= bound * (1 + 1e-9) + 1e-12
+            assert np.all(fq[ts < below * (1 - 1e-9)] <= 0.5 + 1e-12)
+            assert np.all(fq[ts < above * (1 - 1e-9)] >= 0.5 - 1e-12)
 
 
 @given(st.sampled_from(["soft_object", "cubic"]), st.floats(0.3, 3.0), st.integers(0, 2**31))
@@ -323,13 +325,14 @@ def test_value_aware_bounds_hold_on_random_trees(tree, seed, frac):
     code, params, boxes, lips = prog.arrays
     for corner in sample_points(tree, 30, seed):
         x = rng.uniform(corner, corner + size)
-        f, bound, below, above = K.bound_box_at(code, params, boxes, lips, *corner,
-                                                *(corner + size), *x, vs, ps)
-        assert abs(f - tree.reference(x[None])[0][0]) <= 1e-12
         Q = rng.uniform(corner, corner + size, (200, 3))
         fq, gq, _ = tree.reference(Q)
-        assert np.linalg.norm(gq, axis=1).max() <= bound * (1 + 1e-9) + 1e-12
-        # and the field stays below (above) 0.5 within the distance it gives
         distance = np.linalg.norm(Q - x, axis=1)
-        assert np.all(fq[distance < below * (1 - 1e-9)] <= 0.5 + 1e-12)
-        assert np.all(fq[distance < above * (1 - 1e-9)] >= 0.5 - 1e-12)
+        for values in (True, False):  # the value-aware pass and the plain one
+            f, bound, below, above = K.bound_box_at(code, params, boxes, lips, *corner,
+                                                    *(corner + size), *x, values, vs, ps)
+            assert abs(f - tree.reference(x[None])[0][0]) <= 1e-12
+            assert np.linalg.norm(gq, axis=1).max() <= bound * (1 + 1e-9) + 1e-12
+            # and the field stays below (above) 0.5 within the distance it gives
+            assert np.all(fq[distance < below * (1 - 1e-9)] <= 0.5 + 1e-12)
+            assert np.all(fq[distance < above * (1 - 1e-9)] >= 0.5 - 1e-12)

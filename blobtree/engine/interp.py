@@ -21,7 +21,7 @@ import numpy as np
 
 from ..jit import kernel
 from ..nodes.base import ABOVE, BELOW, BOUND, FALLOFF
-from ..nodes.kmath import fo, fo_ds, map_box, map_point, safe_distances, texel
+from ..nodes.kmath import fo, fo_ds, gaps, map_box, map_point, safe_distances, texel
 from .dispatch import (
     K_BOX,
     K_OPERATOR,
@@ -389,7 +389,7 @@ def _bounded(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox, o
 
 
 @kernel
-def lipschitz_box(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, vs, ps):
+def lipschitz_box(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, vs):
     """A bound on |grad f| over the box [lo, hi] (world coordinates): the tree's Lipschitz rules
     (sum at blends, max at CSG) over only the primitives whose boxes meet it, each with its
     distance-aware bound; through a warp the box is carried into the warp's child frame (as a
@@ -399,41 +399,53 @@ def lipschitz_box(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, vs, p
 
 
 @kernel
-def bound_box_at(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, x, y, z, vs, ps):
-    """(The field at (x, y, z), a point of the box [lo, hi]; a bound on |grad f| over the box;
-    how far from the point within the box the field surely stays below ISO; and above it):
-    ``lipschitz_box``, where CSG operators drop the bounds of children that the field values at
-    the point show cannot set the result anywhere in the box (:func:`_bounded`)."""
-    return _bounded(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, False, x, y, z,
-                    0.0, 0.0, 0.0, 0.0, vs, ps)
+def bounds_use_values(code):
+    """Whether the program's root is an operator whose bound uses field values (a CSG root):
+    then the bound pass that evaluates the field (:func:`_bounded`) is worth its extra work; a
+    program of blends gains nothing from it."""
+    n = code.shape[0]
+    return n > 0 and VALUE_BOUND[code[n - 1, 0]]
 
 
 @kernel
-def bounds_use_values(code):
-    """Whether the program's root is an operator whose bound uses field values (a CSG root):
-    then a bound taken with the field is worth its extra work (``lipschitz_segment`` with
-    ``values``); a program of blends gains nothing from it."""
-    n = code.shape[0]
-    return n > 0 and VALUE_BOUND[code[n - 1, 0]]
+def _bound_at(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, x, y, z, dx, dy,
+              dz, length, values, vs, ps):
+    """:func:`_bounded` with ``values``; else the field by ``eval_point``, the plain bound and
+    the distances those two give (cheaper for a program of blends)."""
+    if values:
+        return _bounded(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, x, y, z,
+                        dx, dy, dz, length, vs, ps)
+    f = eval_point(code, params, boxes, x, y, z, 0, vs, ps)
+    bound = _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, x, y, z,
+                       dx, dy, dz, length, vs)
+    below, above = gaps(f, bound)
+    return f, bound, below, above
+
+
+@kernel
+def bound_box_at(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, x, y, z, values, vs,
+                 ps):
+    """(The field at (x, y, z), a point of the box [lo, hi]; a bound on |grad f| over the box;
+    how far from the point within the box the field surely stays below ISO; and above it).
+    With ``values`` (see :func:`bounds_use_values`), CSG operators drop the bounds of children
+    that the field values at the point show cannot set the result anywhere in the box, and
+    prove longer distances (:func:`_bounded`)."""
+    return _bound_at(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, False, x, y, z,
+                     0.0, 0.0, 0.0, 0.0, values, vs, ps)
 
 
 @kernel
 def lipschitz_segment(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, length, values, vs,
                       ps):
     """(The field at o; a bound on |df/dt| along the segment o + t d, 0 <= t <= length, d a unit
-    vector; how far along it the field surely stays below ISO; and above it; the field and the
-    distances only with ``values``, else 0): :func:`bound_box_at` over the segment's box, except
-    that primitives with a directional bound (point primitives, outside warps) take it instead
-    (never larger, and small where the segment passes a primitive sideways, so grazing rays
-    take long steps)."""
+    vector; how far along it the field surely stays below ISO; and above it):
+    :func:`bound_box_at` over the segment's box, except that primitives with a directional
+    bound (point primitives, outside warps) take it instead (never larger, and small where the
+    segment passes a primitive sideways, so grazing rays take long steps)."""
     bx, by, bz = ox + length * dx, oy + length * dy, oz + length * dz
-    lox, loy, loz = min(ox, bx), min(oy, by), min(oz, bz)
-    hix, hiy, hiz = max(ox, bx), max(oy, by), max(oz, bz)
-    if values:
-        return _bounded(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, True, ox, oy,
-                        oz, dx, dy, dz, length, vs, ps)
-    return 0.0, _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, True, ox,
-                           oy, oz, dx, dy, dz, length, vs), 0.0, 0.0
+    return _bound_at(code, params, boxes, lips, min(ox, bx), min(oy, by), min(oz, bz),
+                     max(ox, bx), max(oy, by), max(oz, bz), True, ox, oy, oz, dx, dy, dz, length,
+                     values, vs, ps)
 
 
 @kernel(nrt=True, nogil=True)
@@ -460,13 +472,13 @@ def bound_range(start, stop, code, params, boxes, lips, lo, hi, at, depth, out):
     for m in range(start, stop):
         out[m, 0], out[m, 1], out[m, 2], out[m, 3] = bound_box_at(
             code, params, boxes, lips, lo[m, 0], lo[m, 1], lo[m, 2], hi[m, 0], hi[m, 1],
-            hi[m, 2], at[m, 0], at[m, 1], at[m, 2], vs, ps)
+            hi[m, 2], at[m, 0], at[m, 1], at[m, 2], True, vs, ps)
 
 
 @kernel(nrt=True, nogil=True)
 def lipschitz_range(start, stop, code, params, boxes, lips, lo, hi, depth, out):
     """``lipschitz_box`` for boxes start..stop - 1 of (M, 3) lo, hi."""
-    vs, ps = scratch(depth)
+    vs, _ = scratch(depth)
     for m in range(start, stop):
         out[m] = lipschitz_box(code, params, boxes, lips, lo[m, 0], lo[m, 1], lo[m, 2],
-                               hi[m, 0], hi[m, 1], hi[m, 2], vs, ps)
+                               hi[m, 0], hi[m, 1], hi[m, 2], vs)

@@ -161,18 +161,20 @@ def select(vs, b, k, largest):
 
 
 @kernel
+def gaps(f, bound):
+    """How far from a point a field of value f there and gradient bound L around it surely stays
+    below and above ISO: |ISO - f| / L on the side f is on (infinite for L = 0), 0 on the other."""
+    gap = abs(f - ISO) / bound if bound > 0.0 else math.inf
+    return (gap if f < ISO else 0.0), (gap if f > ISO else 0.0)
+
+
+@kernel
 def safe_distances(vs, j):
     """How far from the region's point the field of value-stack row j surely stays below and
     above ISO: the larger of what its operator proved (vs[j, BELOW], vs[j, ABOVE]) and what its
-    value f and bound L give, |ISO - f| / L on the side f is on (infinite for L = 0)."""
-    f, bound = vs[j, 0], vs[j, BOUND]
-    gap = abs(f - ISO) / bound if bound > 0.0 else math.inf
-    below, above = vs[j, BELOW], vs[j, ABOVE]
-    if f < ISO:
-        below = max(below, gap)
-    elif f > ISO:
-        above = max(above, gap)
-    return below, above
+    value and bound give (:func:`gaps`)."""
+    below, above = gaps(vs[j, 0], vs[j, BOUND])
+    return max(below, vs[j, BELOW]), max(above, vs[j, ABOVE])
 
 
 @kernel

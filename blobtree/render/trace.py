@@ -95,21 +95,6 @@ def _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, ta, fa, tb, fb, tol, vs
 
 
 @kernel
-def _segment(code, params, boxes, lips, values, x, y, z, dx, dy, dz, length, vstack, pstack):
-    """(f - ISO at the point, the bound along the segment, how far along it the field surely
-    stays below ISO) for a new candidate segment: in one pass with ``values`` (a CSG root), else
-    the field and a plain bound (cheaper for a program of blends)."""
-    if values:
-        f, lam, below, _ = interp.lipschitz_segment(code, params, boxes, lips, x, y, z, dx, dy,
-                                                    dz, length, True, vstack, pstack)
-        return f - ISO, lam, below
-    f = interp.eval_point(code, params, boxes, x, y, z, 0, vstack, pstack)
-    lam = interp.lipschitz_segment(code, params, boxes, lips, x, y, z, dx, dy, dz, length, False,
-                                   vstack, pstack)[1]
-    return f - ISO, lam, 0.0
-
-
-@kernel
 def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, eps_rel,
           delta0, vstack, pstack):
     """(First t in [t0, t1] where the field reaches ISO along the unit-direction ray, or -1;
@@ -126,8 +111,10 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
     values = interp.bounds_use_values(code)
     t = t0
     delta = delta0
-    f, lam, below = _segment(code, params, boxes, lips, values, ox + t * dx, oy + t * dy,
-                             oz + t * dz, dx, dy, dz, min(delta, t1 - t), vstack, pstack)
+    f, lam, below, _ = interp.lipschitz_segment(code, params, boxes, lips, ox + t * dx,
+                                                oy + t * dy, oz + t * dz, dx, dy, dz,
+                                                min(delta, t1 - t), values, vstack, pstack)
+    f -= ISO
     if f >= 0.0:
         return t, 0.0, t
     low = f
@@ -148,12 +135,15 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
             new_segment = tn >= te or te - tn > REBOUND * last
             if new_segment:
                 delta = SEGMENT_GROWTH * (tn - ts) if tn >= te else GROWTH * last
-                fn, lam, below = _segment(code, params, boxes, lips, values, ox + tn * dx,
-                                          oy + tn * dy, oz + tn * dz, dx, dy, dz,
-                                          min(delta, t1 - tn), vstack, pstack)
+                fn, lam, below, _ = interp.lipschitz_segment(code, params, boxes, lips,
+                                                             ox + tn * dx, oy + tn * dy,
+                                                             oz + tn * dz, dx, dy, dz,
+                                                             min(delta, t1 - tn), values, vstack,
+                                                             pstack)
             else:
                 fn = interp.eval_point(code, params, boxes, ox + tn * dx, oy + tn * dy,
-                                       oz + tn * dz, 0, vstack, pstack) - ISO
+                                       oz + tn * dz, 0, vstack, pstack)
+            fn -= ISO
             if fn >= 0.0:
                 t_hit = _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, t, f, tn, fn,
                                 REFINE_TOL * eps, vstack, pstack)
@@ -218,12 +208,12 @@ def march_cone(code, params, boxes, lips, ex, ey, ez, ax, ay, az, tan_a, t, t1, 
         hix, hiy, hiz = max(px, qx) + r, max(py, qy) + r, max(pz, qz) + r
         if values:
             _, lam, below, _ = interp.bound_box_at(code, params, boxes, lips, lox, loy, loz, hix,
-                                                   hiy, hiz, px, py, pz, vstack, pstack)
-        else:
+                                                   hiy, hiz, px, py, pz, True, vstack, pstack)
+        else:  # the plain bound, and the field only where it is needed (the bound is not 0)
             lam = interp.lipschitz_box(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz,
-                                       vstack, pstack)
+                                       vstack)
             below = 0.0
-            if lam > 0.0:  # (the field is needed only then)
+            if lam > 0.0:
                 below = (ISO - interp.eval_point(code, params, boxes, px, py, pz, 0, vstack,
                                                  pstack)) / lam
         step = te - t
