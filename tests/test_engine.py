@@ -222,7 +222,7 @@ def test_segment_lipschitz_bounds_hold_on_random_trees(tree, seed, frac):
         for values in (True, False):  # the value-aware pass and the plain one
             f, bound, below, above = K.lipschitz_segment(code, params, boxes, lips, *o, *d,
                                                          length, values, vs, ps)
-            assert abs(f - fq[0]) <= 1e-12
+            np.testing.assert_allclose(f, fq[0], rtol=1e-9, atol=1e-12)
             assert np.abs(gq @ d).max() <= bound * (1 + 1e-9) + 1e-12
             assert np.all(fq[ts < below * (1 - 1e-9)] <= 0.5 + 1e-12)
             assert np.all(fq[ts < above * (1 - 1e-9)] >= 0.5 - 1e-12)
@@ -331,7 +331,8 @@ def test_value_aware_bounds_hold_on_random_trees(tree, seed, frac):
         for values in (True, False):  # the value-aware pass and the plain one
             f, bound, below, above = K.bound_box_at(code, params, boxes, lips, *corner,
                                                     *(corner + size), *x, values, vs, ps)
-            assert abs(f - tree.reference(x[None])[0][0]) <= 1e-12
+            np.testing.assert_allclose(f, tree.reference(x[None])[0][0], rtol=1e-9,
+                                       atol=1e-12)
             assert np.linalg.norm(gq, axis=1).max() <= bound * (1 + 1e-9) + 1e-12
             # and the field stays below (above) 0.5 within the distance it gives
             assert np.all(fq[distance < below * (1 - 1e-9)] <= 0.5 + 1e-12)

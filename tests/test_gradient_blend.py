@@ -5,10 +5,15 @@ meet, no bulge over two crossing cylinders, sound bounds, refused parameters, an
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 import blobtree as bt
+from blobtree.engine import interp as K
 from blobtree.models.murex import bumps
 from blobtree.render import intersect
+from tests.conftest import examples
+from tests.trees import sample_points, trees
 
 A = bt.Segment((-2.0, 0.0, 0.0), (2.0, 0.0, 0.0), radius=1.0)  # two crossing cylinders
 B = bt.Segment((0.0, 0.0, -2.0), (0.0, 0.0, 2.0), radius=1.0)
@@ -162,3 +167,34 @@ def test_murex_bumps_join_by_the_gradient_blend_where_asked():
     assert np.allclose(ours.field(P[clear]), paper.field(P[clear]), rtol=0, atol=1e-12)
     with pytest.raises(ValueError, match="join"):
         bt.models.shell({"version": 1, "extends": "murex", "bumps": {"join": "sum"}})
+
+
+@examples(0.5)
+@given(trees(max_leaves=4), trees(max_leaves=4), st.integers(0, 2**31), st.floats(0.02, 0.4),
+       st.floats(1.0, 4.0), st.floats(0.0, 0.45))
+def test_bounds_hold_for_random_children(a, b, seed, frac, power, contact):
+    """The gradient blend of two random trees: the engine's field at a point of a box is the
+    reference's, and both bound passes (value-aware and plain) bound every gradient sampled in
+    the box and keep the field on its side of 0.5 within the distances they give."""
+    tree = bt.gradient_blend(a, b.translate(0.3, 0.1, 0.0), power=power, contact=contact)
+    prog = tree.program()
+    lo, hi = tree.bounds()
+    if np.any(lo > hi):
+        return
+    rng = np.random.default_rng(seed)
+    size = frac * (hi - lo) + 1e-3
+    vs, ps = K.scratch(prog.depth)
+    code, params, boxes, lips = prog.arrays
+    for corner in sample_points(tree, 20, seed):
+        x = rng.uniform(corner, corner + size)
+        Q = rng.uniform(corner, corner + size, (200, 3))
+        fq, gq, _ = tree.reference(Q)
+        distance = np.linalg.norm(Q - x, axis=1)
+        for values in (True, False):
+            f, bound, below, above = K.bound_box_at(code, params, boxes, lips, *corner,
+                                                    *(corner + size), *x, values, vs, ps)
+            np.testing.assert_allclose(f, tree.reference(x[None])[0][0], rtol=1e-9,
+                                       atol=1e-12)
+            assert np.linalg.norm(gq, axis=1).max() <= bound * (1 + 1e-9) + 1e-12
+            assert np.all(fq[distance < below * (1 - 1e-9)] <= 0.5 + 1e-12)
+            assert np.all(fq[distance < above * (1 - 1e-9)] >= 0.5 - 1e-12)
