@@ -198,3 +198,17 @@ def test_bounds_hold_for_random_children(a, b, seed, frac, power, contact):
             assert np.linalg.norm(gq, axis=1).max() <= bound * (1 + 1e-9) + 1e-12
             assert np.all(fq[distance < below * (1 - 1e-9)] <= 0.5 + 1e-12)
             assert np.all(fq[distance < above * (1 - 1e-9)] >= 0.5 - 1e-12)
+
+
+def test_nested_blends_with_automatic_steps_stay_equal_to_the_reference():
+    """A gradient blend's own Lipschitz bound is far above its slopes, so a parent's automatic
+    step (a fifth of 1 / L) would shrink to the rounding level at three levels of nesting and
+    its differences would be noise; the step is kept to at least a thousandth of the child's
+    box, and engine and reference agree."""
+    inner = bt.gradient_blend(bt.Point(radius=1.0).translate(0.5, 0.0, 0.0), bt.Point(radius=1.0))
+    tree = bt.gradient_blend(A, bt.gradient_blend(bt.Point(radius=1.0), inner))
+    smaller = min(np.linalg.norm(hi - lo) for lo, hi in (c.bounds() for c in tree.children))
+    assert tree.used_step >= 1e-3 * smaller
+    lo, hi = tree.bounds()
+    P = np.random.default_rng(7).uniform(lo, hi, (3000, 3))
+    np.testing.assert_allclose(tree.field(P), tree.reference(P)[0], rtol=1e-9, atol=1e-12)

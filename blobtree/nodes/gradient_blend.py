@@ -40,6 +40,8 @@ from . import kmath
 from .base import BOUND, ISO, Node, Operator, OperatorKernels, register
 from .params import Param
 
+#: The automatic step is at least this fraction of the smaller child's box diagonal.
+MIN_STEP = 1e-3
 #: params[o + ...]: the plain rule's factor, step, floor, power, max |W'(c)|, contact
 FACTOR, STEP, FLOOR, POWER, SLOPE_W, CONTACT = range(6)
 
@@ -160,7 +162,8 @@ class GradientBlend(Operator):
     """Gradient-based blend of two shapes (Gourmel et al. 2013, adapted; see the module
     docstring): the plain blend where their gradients are perpendicular, the union where they
     are parallel or opposed.  ``step``: the forward-difference step of the gradient directions
-    (0: a fifth of the steeper child's 1 / Lipschitz bound); ``floor``: the gradient magnitude
+    (0: a fifth of the steeper child's 1 / Lipschitz bound, at least ``MIN_STEP`` of the smaller
+    child's box diagonal); ``floor``: the gradient magnitude
     below which a direction counts as unknown (0: a twentieth of the gentler child's Lipschitz
     bound); ``power``: W = (1 - c^2)^power, higher blends only nearer perpendicular;
     ``contact``: the field value below which the lower field adds nothing (a small shape whose
@@ -186,7 +189,13 @@ class GradientBlend(Operator):
 
     def _check(self) -> None:
         la, lb = (c.lipschitz() for c in self.children)
-        self._set("used_step", self.step if self.step > 0.0 else 0.2 / max(la, lb, 1e-12))
+        # the automatic step: a fifth of 1 / L, but never below a thousandth of the smaller
+        # child's box (a child's L can be far above its slopes, e.g. a gradient blend's own:
+        # a step at the rounding level would make the differences noise)
+        sizes = [float(np.linalg.norm(hi - lo)) for lo, hi in (c.bounds() for c in self.children)]
+        least = MIN_STEP * min((d for d in sizes if math.isfinite(d) and d > 0.0), default=0.0)
+        self._set("used_step", self.step if self.step > 0.0 else
+                  max(0.2 / max(la, lb, 1e-12), least))
         self._set("used_floor", self.floor if self.floor > 0.0 else 0.05 * max(min(la, lb), 1e-12))
         # without field values: |grad h| <= (1 / (1 - 2 contact) + 3 max|W'| / (floor step))
         # times the sum of the eight children's bounds (|grad D| <= 3 max L / step per child,
