@@ -133,7 +133,8 @@ def test_the_tracer_finds_the_surface_the_field_has():
 
 
 @pytest.mark.parametrize("kwargs, name", [({"power": 0.5}, "power"), ({"contact": 0.5}, "contact"),
-                                          ({"step": -1.0}, "step"), ({"floor": np.nan}, "floor")])
+                                          ({"step": -1.0}, "step"), ({"floor": np.nan}, "floor"),
+                                          ({"step": 5e-324}, "step"), ({"floor": 1e-300}, "floor")])
 def test_bad_parameters_are_refused_by_name(kwargs, name):
     with pytest.raises(ValueError, match=name):
         bt.gradient_blend(A, B, **kwargs)

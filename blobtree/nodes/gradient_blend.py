@@ -42,6 +42,9 @@ from .params import Param
 
 #: The automatic step is at least this fraction of the smaller child's box diagonal.
 MIN_STEP = 1e-3
+#: A step (floor) given must be at least this fraction of the smaller child's box diagonal (of
+#: the gentler child's Lipschitz bound): below it the differences are rounding noise.
+SMALLEST = 1e-6
 #: params[o + ...]: the plain rule's factor, step, floor, power, max |W'(c)|, contact
 FACTOR, STEP, FLOOR, POWER, SLOPE_W, CONTACT = range(6)
 
@@ -193,10 +196,18 @@ class GradientBlend(Operator):
         # child's box (a child's L can be far above its slopes, e.g. a gradient blend's own:
         # a step at the rounding level would make the differences noise)
         sizes = [float(np.linalg.norm(hi - lo)) for lo, hi in (c.bounds() for c in self.children)]
-        least = MIN_STEP * min((d for d in sizes if math.isfinite(d) and d > 0.0), default=0.0)
+        size = min((d for d in sizes if math.isfinite(d) and d > 0.0), default=1.0)
+        gentle = max(min(la, lb), 1e-12)
+        if 0.0 < self.step < SMALLEST * size:  # differences over it would be rounding noise
+            raise ValueError(f"step must be 0 (automatic) or at least {SMALLEST * size:.3g} "
+                             f"({SMALLEST:g} of the smaller child's box), got {self.step!r}")
+        if 0.0 < self.floor < SMALLEST * gentle:
+            raise ValueError(f"floor must be 0 (automatic) or at least {SMALLEST * gentle:.3g} "
+                             f"({SMALLEST:g} of the gentler child's Lipschitz bound), got "
+                             f"{self.floor!r}")
         self._set("used_step", self.step if self.step > 0.0 else
-                  max(0.2 / max(la, lb, 1e-12), least))
-        self._set("used_floor", self.floor if self.floor > 0.0 else 0.05 * max(min(la, lb), 1e-12))
+                  max(0.2 / max(la, lb, 1e-12), MIN_STEP * size))
+        self._set("used_floor", self.floor if self.floor > 0.0 else 0.05 * gentle)
         # without field values: |grad h| <= (1 / (1 - 2 contact) + 3 max|W'| / (floor step))
         # times the sum of the eight children's bounds (|grad D| <= 3 max L / step per child,
         # |dc/dD| <= 1 / floor, t <= 1 and dt/dlow <= 1 / (1 - 2 contact))
