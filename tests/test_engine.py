@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 
 import blobtree as bt
 from tests.conftest import examples
-from tests.trees import sample_points, trees
+from tests.trees import check_box_bounds, sample_points, trees
 
 
 @given(trees(), st.integers(0, 2**31))
@@ -313,27 +313,4 @@ def test_value_aware_bounds_hold_on_random_trees(tree, seed, frac):
     """With the field values at a point of the box, CSG operators drop the bounds of children
     that cannot set the result there: the field it returns is the field at the point, and the
     bound still bounds |grad f| over the whole box."""
-    from blobtree.engine import interp as K
-
-    prog = tree.program()
-    lo, hi = tree.bounds()
-    if np.any(lo > hi):
-        return
-    rng = np.random.default_rng(seed)
-    size = frac * (hi - lo) + 1e-3
-    vs, ps = K.scratch(prog.depth)
-    code, params, boxes, lips = prog.arrays
-    for corner in sample_points(tree, 30, seed):
-        x = rng.uniform(corner, corner + size)
-        Q = rng.uniform(corner, corner + size, (200, 3))
-        fq, gq, _ = tree.reference(Q)
-        distance = np.linalg.norm(Q - x, axis=1)
-        for values in (True, False):  # the value-aware pass and the plain one
-            f, bound, below, above = K.bound_box_at(code, params, boxes, lips, *corner,
-                                                    *(corner + size), *x, values, vs, ps)
-            np.testing.assert_allclose(f, tree.reference(x[None])[0][0], rtol=1e-9,
-                                       atol=1e-12)
-            assert np.linalg.norm(gq, axis=1).max() <= bound * (1 + 1e-9) + 1e-12
-            # and the field stays below (above) 0.5 within the distance it gives
-            assert np.all(fq[distance < below * (1 - 1e-9)] <= 0.5 + 1e-12)
-            assert np.all(fq[distance < above * (1 - 1e-9)] >= 0.5 - 1e-12)
+    check_box_bounds(tree, seed, frac, 30)

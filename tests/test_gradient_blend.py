@@ -9,11 +9,10 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import blobtree as bt
-from blobtree.engine import interp as K
 from blobtree.models.murex import bumps
 from blobtree.render import intersect
 from tests.conftest import examples
-from tests.trees import sample_points, trees
+from tests.trees import check_box_bounds, trees
 
 A = bt.Segment((-2.0, 0.0, 0.0), (2.0, 0.0, 0.0), radius=1.0)  # two crossing cylinders
 B = bt.Segment((0.0, 0.0, -2.0), (0.0, 0.0, 2.0), radius=1.0)
@@ -178,27 +177,7 @@ def test_bounds_hold_for_random_children(a, b, seed, frac, power, contact):
     reference's, and both bound passes (value-aware and plain) bound every gradient sampled in
     the box and keep the field on its side of 0.5 within the distances they give."""
     tree = bt.gradient_blend(a, b.translate(0.3, 0.1, 0.0), power=power, contact=contact)
-    prog = tree.program()
-    lo, hi = tree.bounds()
-    if np.any(lo > hi):
-        return
-    rng = np.random.default_rng(seed)
-    size = frac * (hi - lo) + 1e-3
-    vs, ps = K.scratch(prog.depth)
-    code, params, boxes, lips = prog.arrays
-    for corner in sample_points(tree, 20, seed):
-        x = rng.uniform(corner, corner + size)
-        Q = rng.uniform(corner, corner + size, (200, 3))
-        fq, gq, _ = tree.reference(Q)
-        distance = np.linalg.norm(Q - x, axis=1)
-        for values in (True, False):
-            f, bound, below, above = K.bound_box_at(code, params, boxes, lips, *corner,
-                                                    *(corner + size), *x, values, vs, ps)
-            np.testing.assert_allclose(f, tree.reference(x[None])[0][0], rtol=1e-9,
-                                       atol=1e-12)
-            assert np.linalg.norm(gq, axis=1).max() <= bound * (1 + 1e-9) + 1e-12
-            assert np.all(fq[distance < below * (1 - 1e-9)] <= 0.5 + 1e-12)
-            assert np.all(fq[distance < above * (1 - 1e-9)] >= 0.5 - 1e-12)
+    check_box_bounds(tree, seed, frac, 20)
 
 
 def test_nested_blends_with_automatic_steps_stay_equal_to_the_reference():

@@ -91,3 +91,33 @@ def sample_points(tree: bt.Node, n: int, seed: int, grow: float = 0.2) -> np.nda
         lo, hi = np.full(3, -2.0), np.full(3, 2.0)
     pad = grow * (hi - lo) + 1e-3
     return np.random.default_rng(seed).uniform(lo - pad, hi + pad, (n, 3))
+
+
+def check_box_bounds(tree: bt.Node, seed: int, frac: float, count: int) -> None:
+    """Over ``count`` boxes of ``frac`` of the tree's extent, at sampled corners, both bound
+    passes of ``bound_box_at`` (value-aware and plain) give the reference's field at a point of
+    the box, bound every gradient sampled in it, and keep the field on its side of 0.5 within
+    the distances they give."""
+    from blobtree.engine import interp as K
+
+    prog = tree.program()
+    lo, hi = tree.bounds()
+    if np.any(lo > hi):
+        return
+    rng = np.random.default_rng(seed)
+    size = frac * (hi - lo) + 1e-3
+    vs, ps = K.scratch(prog.depth)
+    code, params, boxes, lips = prog.arrays
+    for corner in sample_points(tree, count, seed):
+        x = rng.uniform(corner, corner + size)
+        Q = rng.uniform(corner, corner + size, (200, 3))
+        fq, gq, _ = tree.reference(Q)
+        distance = np.linalg.norm(Q - x, axis=1)
+        for values in (True, False):
+            f, bound, below, above = K.bound_box_at(code, params, boxes, lips, *corner,
+                                                    *(corner + size), *x, values, vs, ps)
+            np.testing.assert_allclose(f, tree.reference(x[None])[0][0], rtol=1e-9,
+                                       atol=1e-12)
+            assert np.linalg.norm(gq, axis=1).max() <= bound * (1 + 1e-9) + 1e-12
+            assert np.all(fq[distance < below * (1 - 1e-9)] <= 0.5 + 1e-12)
+            assert np.all(fq[distance < above * (1 - 1e-9)] >= 0.5 - 1e-12)
