@@ -192,3 +192,26 @@ def test_nested_blends_with_automatic_steps_stay_equal_to_the_reference():
     lo, hi = tree.bounds()
     P = np.random.default_rng(7).uniform(lo, hi, (3000, 3))
     np.testing.assert_allclose(tree.field(P), tree.reference(P)[0], rtol=1e-9, atol=1e-12)
+
+
+def test_no_blending_across_a_gap():
+    """Two parallel cylinders 0.2 apart: the sum bridges the gap (their fields add above 0.5
+    between them); there their gradients are opposed, and the gradient blend leaves it open,
+    within 0.02 of the union (forward differences, one-sided, tilt both directions a little the
+    same way, so they are not exactly opposed)."""
+    far = bt.Segment((-2.0, 1.2, 0.0), (2.0, 1.2, 0.0), radius=1.0)
+    line = np.column_stack([np.zeros(1201), np.linspace(0.52, 0.68, 1201), np.zeros(1201)])
+    assert (A + far).field(line).min() > 0.5
+    joined = bt.gradient_blend(A, far).field(line)
+    assert joined.max() < 0.5
+    assert np.abs(joined - (A | far).field(line)).max() < 0.02
+
+
+def test_a_small_detail_is_not_blown_up():
+    """A small point on a large one: the sum lifts its top by 0.14; the gradient blend keeps it
+    within 0.005 of the union's (the two gradients are parallel there)."""
+    big, small = bt.Point(radius=4.0), bt.Point(radius=0.6).translate(0.0, 2.0, 0.0)
+    up = np.array([0.0, 1.0, 0.0])
+    union_top = _outermost(big | small, up, reach=4.0)
+    assert _outermost(big + small, up, reach=4.0) > union_top + 0.1
+    assert abs(_outermost(bt.gradient_blend(big, small), up, reach=4.0) - union_top) < 0.005
