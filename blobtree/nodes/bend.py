@@ -23,21 +23,23 @@ K, LENGTH = LAYOUT.offsets
 
 @kernel
 def bend_map(p, o, X, Y, Z):
-    """Canonical bend along x toward +y with curvature k over [0, length]."""
+    """Canonical bend along x toward +y with curvature k over [0, length].  On the arc a point at
+    angle phi and distance rho from the centre of curvature (0, 1/k) maps to (phi / k, 1/k - rho):
+    no sine or cosine (sin phi = u / rho, cos phi = v / rho)."""
     k, length = p[o + K], p[o + LENGTH]
     ik = 1.0 / k
     u, v = X, ik - Y
     phi = math.atan2(u, v)
-    th = min(max(phi, 0.0), k * length)
-    sn, cs = math.sin(th), math.cos(th)
-    dx, dy = X - sn * ik, Y - (1.0 - cs) * ik
-    qx, qy = th * ik + dx * cs + dy * sn, -dx * sn + dy * cs
     if 0.0 < phi < k * length:
         rho2 = u * u + v * v
         rho = math.sqrt(rho2)
-        return qx, qy, Z, v / (k * rho2), u / (k * rho2), 0.0, -u / rho, v / rho, 0.0, \
-            0.0, 0.0, 1.0
-    return qx, qy, Z, cs, sn, 0.0, -sn, cs, 0.0, 0.0, 0.0, 1.0
+        return phi * ik, ik - rho, Z, v / (k * rho2), u / (k * rho2), 0.0, -u / rho, v / rho, \
+            0.0, 0.0, 0.0, 1.0
+    th = 0.0 if phi <= 0.0 else k * length  # before the arc, or past its end: straight
+    sn, cs = math.sin(th), math.cos(th)
+    dx, dy = X - sn * ik, Y - (1.0 - cs) * ik
+    return th * ik + dx * cs + dy * sn, -dx * sn + dy * cs, Z, cs, sn, 0.0, -sn, cs, 0.0, \
+        0.0, 0.0, 1.0
 
 
 @register
