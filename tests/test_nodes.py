@@ -179,6 +179,23 @@ def test_bend_curves_toward_positive_y():
     assert spine.field(mid)[0] == pytest.approx(1.0, abs=1e-12)
 
 
+def test_bend_map_kernel_matches_the_reference_before_on_and_past_the_arc():
+    """The compiled query map (on the arc: arc length and distance from the centre, no sine or
+    cosine) against the reference's rotate-and-translate form, map and Jacobian."""
+    from blobtree.nodes.bend import bend_map
+
+    bend = bt.Segment((0, 0, 0), (2, 0, 0), radius=0.2).bend(50, 2.0)
+    packed = np.concatenate([bend.canonical.reshape(-1), bend.pack()])
+    P = np.random.default_rng(4).uniform((-1.0, -1.0, -0.5), (3.0, 1.0, 0.5), (3000, 3))
+    Q, J = bend.warp_points(P)
+    out = np.array([bend_map(packed, 0, *p) for p in P])
+    np.testing.assert_allclose(out[:, :3], Q, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(out[:, 3:].reshape(-1, 3, 3), J, rtol=1e-12, atol=1e-12)
+    phi = np.arctan2(P[:, 0], 1.0 / bend.k - P[:, 1])
+    regions = (phi <= 0.0), (phi > 0.0) & (phi < bend.k * bend.length), phi >= bend.k * bend.length
+    assert all(r.sum() > 100 for r in regions)  # before, on and past the arc
+
+
 def test_twist_and_taper_move_the_shape():
     bar = bt.Segment((-1, 0, 0), (1, 0, 0), radius=0.2).translate(0, 0, 0)
     tw = bt.Segment((0, 0, 0), (0, 2, 0), radius=0.2).translate(0.5, 0, 0).twist(90, axis="y")
