@@ -121,6 +121,26 @@ def test_whorl126_is_closed_and_manifold():
     assert components(m) == 1
 
 
+def test_is_watertight_refuses_holes_flips_and_extra_faces():
+    """Mesh.is_watertight against trimesh's checks (edges shared by two faces, consistent
+    winding) on a closed mesh, two disjoint copies, and the same with one face removed, flipped
+    or repeated."""
+    m = polygonize(bt.Point(radius=1.0), resolution=12)
+    v, f = m.vertices, m.faces
+    two = Mesh(np.concatenate([v, v + 5.0]), np.concatenate([f, f + len(v)]),
+               np.concatenate([m.normals] * 2), np.concatenate([m.colors] * 2))
+    cases = {"closed": (m, True), "two copies": (two, True),
+             "hole": (Mesh(v, f[1:], m.normals, m.colors), False),
+             "flipped": (Mesh(v, np.concatenate([f[:1, ::-1], f[1:]]), m.normals, m.colors),
+                         False),
+             "repeated": (Mesh(v, np.concatenate([f, f[:1]]), m.normals, m.colors), False),
+             "doubled": (Mesh(v, np.concatenate([f, f]), m.normals, m.colors), False)}
+    for name, (mesh, expected) in cases.items():
+        tm = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
+        assert mesh.is_watertight == expected, name
+        assert (tm.is_watertight and tm.is_winding_consistent) == expected, name
+
+
 def test_difference_with_creases():
     tree = bt.Point(radius=2.0) - bt.Point(radius=1.6, center=(0.9, 0.3, 0))
     assert_spheres(polygonize(tree, resolution=40), 1)

@@ -92,15 +92,18 @@ class Mesh:
     @property
     def is_watertight(self) -> bool:
         """Closed, oriented 2-manifold at the edges: each directed edge occurs once and its
-        reverse once, i.e. every edge joins exactly two faces of opposite winding."""
+        reverse once, i.e. every edge joins exactly two faces of opposite winding.  One sort:
+        the undirected edges' codes with the direction in the low bit must come in pairs, one
+        each way, and no edge may come in two pairs."""
         if len(self.faces) == 0:
             return False
         fwd, rev = self._edge_codes()
-        fwd_sorted = np.sort(fwd)
-        if np.any(fwd_sorted[1:] == fwd_sorted[:-1]):
-            return False
-        pos = np.searchsorted(fwd_sorted, rev)
-        return bool(np.all(fwd_sorted[np.minimum(pos, len(fwd_sorted) - 1)] == rev))
+        c = np.sort(np.minimum(fwd, rev) * 2 + (fwd < rev))
+        first, second = c[0::2], c[1::2]
+        return bool(len(c) % 2 == 0
+                    and np.all(first >> 1 == second >> 1)
+                    and np.all(first & 1 == 0) and np.all(second & 1 == 1)
+                    and np.all(first[1:] >> 1 != second[:-1] >> 1))
 
     @property
     def euler_characteristic(self) -> int:
