@@ -24,6 +24,21 @@ def test_engine_equals_reference(tree, seed):
     assert np.all((f >= 0.0) & (f <= 1.0 + 1e-12)) or not _is_sum_free(tree)
 
 
+def test_csg_ties_pick_the_first_child_in_engine_and_reference():
+    """Two cones whose end caps coincide (both fields are the falloff of |p| where y, z < 0):
+    within rounding of a tie, a union and an intersection take the first child's colour, in the
+    engine and in the reference alike (hypothesis found the two picking differently)."""
+    a = bt.Cone((0, 0, 0), (0, 1, 0), radius_a=1.0, radius_b=1.0)
+    b = bt.Cone((0, 0, 1), (0, 0, 0), radius_a=1.0, radius_b=1.0).color((0.0, 0.0, 0.0))
+    P = np.random.default_rng(3).uniform((-0.6, -0.6, -0.6), (0.6, -0.01, -0.01), (2000, 3))
+    for tree in (a & b, a | b, b & a):
+        _, _, c = tree.program().evaluate(P)
+        _, _, cr = tree.reference(P)
+        first = tree.children[0].reference(P)[2]
+        np.testing.assert_array_equal(c, cr)
+        np.testing.assert_array_equal(cr, first)
+
+
 def _is_sum_free(tree: bt.Node) -> bool:
     """Trees without blends stay in [0, 1]; sums may exceed 1."""
     sums = bt.Blend | bt.SuperBlend | bt.ControlledBlend | bt.GradientBlend

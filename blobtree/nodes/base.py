@@ -617,6 +617,25 @@ class Operator(Node):
         return float(sum(bounds) if self.LIPSCHITZ == "sum" else max(bounds))
 
 
+#: Relative margin by which a later child's field must beat the best so far to win a union's or
+#: intersection's point (its gradient and colour): children whose fields agree closer than
+#: rounding (one cone's end cap inside another's) keep the first, in the compiled engine
+#: (``kmath.select``) and in the reference (:func:`winner`) alike.
+TIE = 1e-12
+
+
+def winner(f: np.ndarray, largest: bool) -> np.ndarray:
+    """Per point, the index of the child (row of ``f``) with the largest (or smallest) field,
+    the first of those within :data:`TIE` of each other."""
+    index = np.zeros(f.shape[1], dtype=np.int64)
+    best = f[0]
+    for j in range(1, len(f)):
+        better = f[j] > best * (1.0 + TIE) if largest else f[j] < best * (1.0 - TIE)
+        index = np.where(better, j, index)
+        best = np.where(better, f[j], best)
+    return index
+
+
 def pick(index: np.ndarray, stacked: np.ndarray) -> np.ndarray:
     """stacked[index[n], n] for each point n."""
     return np.take_along_axis(stacked, index[None, :, None], axis=0)[0]

@@ -2,12 +2,10 @@
 
 from __future__ import annotations
 
-import numpy as np
-
 from .. import geometry as geo
 from ..jit import kernel
 from . import kmath
-from .base import Node, Operator, OperatorKernels, pick, register
+from .base import Node, Operator, OperatorKernels, pick, register, winner
 
 
 @kernel
@@ -40,7 +38,7 @@ class Intersection(Operator):
 
     def _ref(self, P, look=None):
         f, g, c = self._refs(P, look)
-        i = np.argmin(f, axis=0)
+        i = winner(f, False)
         return f.min(axis=0), pick(i, g), pick(i, c)
 
     def combine_boxes(self, boxes):

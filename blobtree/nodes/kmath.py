@@ -12,7 +12,7 @@ import numpy as np
 
 from ..fields import SLOPE_BY_ID, falloff, falloff_ds, falloff_peak
 from ..jit import kernel
-from .base import ABOVE, BELOW, BOUND, ISO
+from .base import ABOVE, BELOW, BOUND, ISO, TIE
 
 fo = kernel(falloff)
 fo_ds = kernel(falloff_ds)
@@ -151,10 +151,11 @@ def squared(dx, dy, dz, radius):
 @kernel
 def select(vs, b, k, largest):
     """The child with the largest (or smallest) field among value-stack rows b .. b + k - 1
-    becomes row b: union and intersection."""
+    becomes row b: union and intersection (ties within ``TIE`` keep the first)."""
     best = b
     for j in range(b + 1, b + k):
-        if (vs[j, 0] > vs[best, 0]) if largest else (vs[j, 0] < vs[best, 0]):
+        if (vs[j, 0] > vs[best, 0] * (1.0 + TIE)) if largest else \
+                (vs[j, 0] < vs[best, 0] * (1.0 - TIE)):
             best = j
     if best != b:
         copy_entry(vs, best, b, 1.0)

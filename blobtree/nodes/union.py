@@ -2,11 +2,9 @@
 
 from __future__ import annotations
 
-import numpy as np
-
 from ..jit import kernel
 from . import kmath
-from .base import Node, Operator, OperatorKernels, pick, register
+from .base import Node, Operator, OperatorKernels, pick, register, winner
 
 
 @kernel
@@ -39,7 +37,7 @@ class Union(Operator):
 
     def _ref(self, P, look=None):
         f, g, c = self._refs(P, look)
-        i = np.argmax(f, axis=0)
+        i = winner(f, True)
         return f.max(axis=0), pick(i, g), pick(i, c)
 
 
