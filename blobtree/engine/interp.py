@@ -181,9 +181,10 @@ def eval_point(code, params, boxes, x, y, z, mode, vs, ps):
                 nx, ny, nz = map_point(p, o, px, py, pz)
                 pp += 1
                 ps[pp, 0], ps[pp, 1], ps[pp, 2] = px, py, pz  # the point to restore
-                for r in range(3):
-                    for c in range(3):
-                        ps[pp, 3 + 3 * r + c] = p[o + 4 * r + c]
+                if mode > 0:  # the Jacobian so far, for the gradient
+                    for r in range(3):
+                        for c in range(3):
+                            ps[pp, 3 + 3 * r + c] = p[o + 4 * r + c]
                 px, py, pz = nx, ny, nz
             elif kind == K_WARP:
                 px, py, pz = apply_warp(op, p, o, px, py, pz, ps, pp, mode)
