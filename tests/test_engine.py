@@ -25,13 +25,21 @@ def test_engine_equals_reference(tree, seed):
 
 
 def test_csg_ties_pick_the_first_child_in_engine_and_reference():
-    """Two cones whose end caps coincide (both fields are the falloff of |p| where y, z < 0):
-    within rounding of a tie, a union and an intersection take the first child's colour, in the
-    engine and in the reference alike (hypothesis found the two picking differently)."""
+    """Where two children's fields agree up to rounding, a union and an intersection take the
+    first child's colour, in the engine and in the reference alike (hypothesis found the two
+    picking differently): cones whose end caps coincide (both fields the falloff of |p| where
+    y, z < 0), and collinear cones drawn in opposite directions, whose caps meet at the origin
+    (fields there down to 0, where rounding is large next to the field)."""
     a = bt.Cone((0, 0, 0), (0, 1, 0), radius_a=1.0, radius_b=1.0)
     b = bt.Cone((0, 0, 1), (0, 0, 0), radius_a=1.0, radius_b=1.0).color((0.0, 0.0, 0.0))
-    P = np.random.default_rng(3).uniform((-0.6, -0.6, -0.6), (0.6, -0.01, -0.01), (2000, 3))
-    for tree in (a & b, a | b, b & a):
+    rng = np.random.default_rng(3)
+    P = rng.uniform((-0.6, -0.6, -0.6), (0.6, -0.01, -0.01), (2000, 3))
+    cases = [(a & b, P), (a | b, P), (b & a, P)]
+    c1 = bt.Cone((0, 0, 0.92), (0, 0, 0), radius_a=1.0, radius_b=1.0)
+    c2 = bt.Cone((0, 0, 0), (0, 0, 1), radius_a=1.0, radius_b=1.0).color((0.0, 0.0, 0.0))
+    Q = rng.uniform((-1.0, -1.0, -1.0), (1.0, 1.0, -0.01), (4000, 3))  # the shared cap
+    cases += [(c1 & c2, Q), (c1 | c2, Q)]
+    for tree, P in cases:
         _, _, c = tree.program().evaluate(P)
         _, _, cr = tree.reference(P)
         first = tree.children[0].reference(P)[2]

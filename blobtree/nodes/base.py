@@ -617,10 +617,12 @@ class Operator(Node):
         return float(sum(bounds) if self.LIPSCHITZ == "sum" else max(bounds))
 
 
-#: Relative margin by which a later child's field must beat the best so far to win a union's or
+#: Margin by which a later child's field must beat the best so far to win a union's or
 #: intersection's point (its gradient and colour): children whose fields agree closer than
-#: rounding (one cone's end cap inside another's) keep the first, in the compiled engine
-#: (``kmath.select``) and in the reference (:func:`winner`) alike.
+#: rounding (coinciding cone caps, overlapping segments) keep the first, in the compiled engine
+#: (``kmath.select``) and in the reference (:func:`winner`) alike.  Absolute, since fields are
+#: of order 1 and their rounding errors are absolute (relative to a field near 0 they are not
+#: small).
 TIE = 1e-12
 
 
@@ -630,7 +632,7 @@ def winner(f: np.ndarray, largest: bool) -> np.ndarray:
     index = np.zeros(f.shape[1], dtype=np.int64)
     best = f[0]
     for j in range(1, len(f)):
-        better = f[j] > best * (1.0 + TIE) if largest else f[j] < best * (1.0 - TIE)
+        better = f[j] > best + TIE if largest else f[j] < best - TIE
         index = np.where(better, j, index)
         best = np.where(better, f[j], best)
     return index

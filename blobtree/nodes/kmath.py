@@ -154,8 +154,7 @@ def select(vs, b, k, largest):
     becomes row b: union and intersection (ties within ``TIE`` keep the first)."""
     best = b
     for j in range(b + 1, b + k):
-        if (vs[j, 0] > vs[best, 0] * (1.0 + TIE)) if largest else \
-                (vs[j, 0] < vs[best, 0] * (1.0 - TIE)):
+        if (vs[j, 0] > vs[best, 0] + TIE) if largest else (vs[j, 0] < vs[best, 0] - TIE):
             best = j
     if best != b:
         copy_entry(vs, best, b, 1.0)
