@@ -622,7 +622,9 @@ class Operator(Node):
 #: rounding (coinciding cone caps, overlapping segments) keep the first, in the compiled engine
 #: (``kmath.select``) and in the reference (:func:`winner`) alike.  Absolute, since fields are
 #: of order 1 and their rounding errors are absolute (relative to a field near 0 they are not
-#: small).
+#: small).  A field of exactly 0 (outside a child's support) is never tied with a positive one:
+#: a union takes the positive child, an intersection the zero one, as the specialised programs
+#: do when they drop or zero a child that misses their region.
 TIE = 1e-12
 
 
@@ -632,7 +634,8 @@ def winner(f: np.ndarray, largest: bool) -> np.ndarray:
     index = np.zeros(f.shape[1], dtype=np.int64)
     best = f[0]
     for j in range(1, len(f)):
-        better = f[j] > best + TIE if largest else f[j] < best - TIE
+        better = ((f[j] > best + TIE) | ((best == 0.0) & (f[j] > 0.0)) if largest
+                  else (f[j] < best - TIE) | ((f[j] == 0.0) & (best > 0.0)))
         index = np.where(better, j, index)
         best = np.where(better, f[j], best)
     return index

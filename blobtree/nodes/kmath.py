@@ -154,7 +154,9 @@ def select(vs, b, k, largest):
     becomes row b: union and intersection (ties within ``TIE`` keep the first)."""
     best = b
     for j in range(b + 1, b + k):
-        if (vs[j, 0] > vs[best, 0] + TIE) if largest else (vs[j, 0] < vs[best, 0] - TIE):
+        fj, fb = vs[j, 0], vs[best, 0]
+        if ((fj > fb + TIE or (fb == 0.0 and fj > 0.0)) if largest
+                else (fj < fb - TIE or (fj == 0.0 and fb > 0.0))):
             best = j
     if best != b:
         copy_entry(vs, best, b, 1.0)
