@@ -31,8 +31,9 @@ from .dispatch import (
     combine_rows,
     kind_of,
     prim_rows,
+    warp_rows,
 )
-from .interp import apply_warp, outside
+from .interp import outside
 from .specialize import Grid, cell_of
 
 #: Points per batch (the length of a value-stack row).
@@ -57,11 +58,11 @@ def _zero_row(vs, sp, nb):
 
 
 @kernel
-def eval_rows(code, params, boxes, a, b, pts, nb, vs, ps, tmp):
+def eval_rows(code, params, boxes, a, b, pts, nb, vs, tmp):
     """Run the program in rows a:b of code and boxes (skip targets relative to a) on the nb
     points pts[0, :, :nb] (rows x, y, z); the field is left in vs[0, :nb].  pts (depth + 1, 3,
-    SUB) is the point stack of warps, vs (depth, SUB) the value stack, ps (1, 30) scratch for
-    ``interp.apply_warp``, tmp (depth, 7) scratch for operators without a batch kernel."""
+    SUB) is the point stack of warps, vs (depth, SUB) the value stack, tmp (depth, 7) scratch for
+    operators without a batch kernel."""
     n = b - a
     nw = (nb + W - 1) // W * W
     p = params
@@ -95,9 +96,7 @@ def eval_rows(code, params, boxes, a, b, pts, nb, vs, ps, tmp):
                                              + p[o + 4 * r + 2] * z + p[o + 4 * r + 3])
                 pp += 1
             elif kind == K_WARP:
-                for m in range(nb):
-                    pts[pp, 0, m], pts[pp, 1, m], pts[pp, 2, m] = apply_warp(
-                        op, p, o, pts[pp, 0, m], pts[pp, 1, m], pts[pp, 2, m], ps, 0, 0)
+                warp_rows(op, p, o, pts, pp, nb)
             i += 1
         elif kind == K_POPPT:
             pp -= 1
@@ -150,7 +149,6 @@ def _eval_runs(t0, t1, start, gc, gb, params, first, xyz, depth, slab, vals):
     m = xyz.shape[0]
     pts = np.zeros((depth + 1, 3, SUB))
     vs = np.empty((depth, SUB))
-    ps = np.empty((1, 30))
     tmp = np.empty((depth, 7))
     for t in range(t0, t1):
         s0, s1 = t * slab, min(m, (t + 1) * slab)
@@ -163,7 +161,7 @@ def _eval_runs(t0, t1, start, gc, gb, params, first, xyz, depth, slab, vals):
             for r in range(3):
                 for k in range(nb):
                     pts[0, r, k] = xyz[s + k, r]
-            eval_rows(gc, params, gb, start[c], start[c + 1], pts, nb, vs, ps, tmp)
+            eval_rows(gc, params, gb, start[c], start[c + 1], pts, nb, vs, tmp)
             for k in range(nb):
                 vals[s + k] = vs[0, k]
             s += nb

@@ -107,7 +107,7 @@ def _dispatcher(name: str, args: str, kind: str, case: str, miss: str) -> str:
 
 #: Kernels compiled into their dispatcher (the rest are called): the bounds the ray tracer asks
 #: for at every step, and the operators, whose work is small next to a call.
-INLINE_KERNELS = ("along", "lipschitz", "combine", "rows", "bound")
+INLINE_KERNELS = ("along", "lipschitz", "combine", "rows", "bound", "map")
 #: Dispatchers compiled into their one caller.
 INLINE_DISPATCHERS = ("prim_s", "prim_along", "prim_lipschitz", "combine", "combine_rows",
                       "op_bound")
@@ -131,6 +131,11 @@ _ROWS = """for k in range(nb):
     qx, qy, qz = map_point(p, o, pts[pp, 0, k], pts[pp, 1, k], pts[pp, 2, k])
     s = K.s(p, o, qx, qy, qz)[0]
     vs[sp, k] = fo(fid, min(s, 1.0)) if s < 1.0 else 0.0
+return"""
+_WARP_ROWS = """for m in range(nb):
+    X, Y, Z = to_canonical(p, o, pts[pp, 0, m], pts[pp, 1, m], pts[pp, 2, m])
+    q = K.map(p, o, X, Y, Z)
+    pts[pp, 0, m], pts[pp, 1, m], pts[pp, 2, m] = from_canonical(p, o, q[0], q[1], q[2])
 return"""
 _ROWS_FROM_COMBINE = """for m in range(nb):
     for j in range(k):
@@ -160,6 +165,7 @@ SOURCE = "".join([
                            else _ROWS_FROM_COMBINE), "return"),
     _dispatcher("warp_map", "p, o, X, Y, Z", "warp", "return K.map(p, o, X, Y, Z)",
                 "return NAN, NAN, NAN, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0"),
+    _dispatcher("warp_rows", "p, o, pts, pp, nb", "warp", _WARP_ROWS, "return"),
     _dispatcher("paint", "p, o, px, py, pz, gx, gy, gz", "paint",
                 "return K.paint(p, o, px, py, pz, gx, gy, gz)", "return NAN, NAN, NAN"),
 ])
@@ -180,10 +186,12 @@ def _build() -> dict[str, object]:
     their source file, so the generated dispatchers are cached like any other kernel (and
     ``jit.engine_key`` recompiles them whenever a node type's module changes)."""
     namespace = {"__name__": __name__, "NAN": math.nan, "distance_bound": distance_bound,
-                 "fo": kmath.fo, "map_point": kmath.map_point, **_kernels()}
+                 "fo": kmath.fo, "map_point": kmath.map_point,
+                 "to_canonical": kmath.to_canonical, "from_canonical": kmath.from_canonical,
+                 **_kernels()}
     exec(compile(SOURCE, __file__, "exec"), namespace)  # noqa: S102 (our own generated code)
     names = ("prim_s", "prim_uv", "prim_lipschitz", "prim_along", "prim_rows", "combine",
-             "op_bound", "combine_rows", "warp_map", "paint")
+             "op_bound", "combine_rows", "warp_map", "warp_rows", "paint")
     return {name: kernel(namespace[name],
                          inline="always" if name in INLINE_DISPATCHERS else "never")
             for name in names}
@@ -198,6 +206,8 @@ prim_uv = _D["prim_uv"]
 prim_lipschitz = _D["prim_lipschitz"]
 #: bound on |df/dt| along a frame segment, or -1: prim_along(op, p, o, ox.., dx.., length)
 prim_along = _D["prim_along"]
+#: a warp's query map over the batch's points in place: warp_rows(op, p, o, pts, pp, nb)
+warp_rows = _D["warp_rows"]
 #: field of a primitive over batch rows: prim_rows(op, fid, p, o, pts, pp, vs, sp, nb)
 prim_rows = _D["prim_rows"]
 #: operator over the value stack: combine(op, vs, b, k, p, o, mode)

@@ -21,7 +21,17 @@ import numpy as np
 
 from ..jit import kernel
 from ..nodes.base import ABOVE, BELOW, BOUND, FALLOFF
-from ..nodes.kmath import fo, fo_ds, gaps, map_box, map_point, safe_distances, texel
+from ..nodes.kmath import (
+    fo,
+    fo_ds,
+    from_canonical,
+    gaps,
+    map_box,
+    map_point,
+    safe_distances,
+    texel,
+    to_canonical,
+)
 from .dispatch import (
     K_BOX,
     K_OPERATOR,
@@ -89,13 +99,9 @@ def apply_warp(op, p, o, x, y, z, ps, pp, mode):
 
     params[o:o + 9] is the signed permutation Pm to the warp's canonical axes: q = Pm^T w(Pm x)
     and J = Pm^T Jc Pm."""
-    X = p[o] * x + p[o + 1] * y + p[o + 2] * z
-    Y = p[o + 3] * x + p[o + 4] * y + p[o + 5] * z
-    Z = p[o + 6] * x + p[o + 7] * y + p[o + 8] * z
+    X, Y, Z = to_canonical(p, o, x, y, z)
     qx, qy, qz, j00, j01, j02, j10, j11, j12, j20, j21, j22 = warp_map(op, p, o, X, Y, Z)
-    nx = p[o] * qx + p[o + 3] * qy + p[o + 6] * qz
-    ny = p[o + 1] * qx + p[o + 4] * qy + p[o + 7] * qz
-    nz = p[o + 2] * qx + p[o + 5] * qy + p[o + 8] * qz
+    nx, ny, nz = from_canonical(p, o, qx, qy, qz)
     if mode == 0:
         return nx, ny, nz
     for col in range(3):  # column col of Jc Pm, then of Pm^T (Jc Pm)

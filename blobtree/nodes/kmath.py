@@ -27,6 +27,23 @@ def map_point(p, o, x, y, z):
             p[o + 8] * x + p[o + 9] * y + p[o + 10] * z + p[o + 11])
 
 
+@kernel(inline="always")
+def to_canonical(p, o, x, y, z):
+    """A warp's frame point in its canonical axes: X = Pm x, for the signed permutation Pm at
+    params[o:o + 9]."""
+    return (p[o] * x + p[o + 1] * y + p[o + 2] * z,
+            p[o + 3] * x + p[o + 4] * y + p[o + 5] * z,
+            p[o + 6] * x + p[o + 7] * y + p[o + 8] * z)
+
+
+@kernel(inline="always")
+def from_canonical(p, o, qx, qy, qz):
+    """A canonical point back in the warp's frame: Pm^T q."""
+    return (p[o] * qx + p[o + 3] * qy + p[o + 6] * qz,
+            p[o + 1] * qx + p[o + 4] * qy + p[o + 7] * qz,
+            p[o + 2] * qx + p[o + 5] * qy + p[o + 8] * qz)
+
+
 @kernel
 def map_box(p, o, lox, loy, loz, hix, hiy, hiz):
     """Centre and half extents of the box around the image of [lo, hi] under the 3x4 affine map
