@@ -15,6 +15,7 @@ import blobtree as bt
 from blobtree.cli.main import main
 from blobtree.mesh import Mesh, polygonize
 from blobtree.mesh._kernels import block_triangles
+from blobtree.mesh.export import ENCODERS
 from tests.conftest import examples
 from tests.trees import trees
 
@@ -317,6 +318,16 @@ def test_formats_round_trip(small_mesh, tmp_path, ext):
     if ext == ".ply":
         rgb = loaded.visual.vertex_colors[:, :3] / 255.0
         assert rgb[:, 0].max() > 0.8 and rgb[:, 2].max() > 0.8
+        # written here, not by trimesh: trimesh reads back every vertex, normal, colour and face
+        assert np.array_equal(loaded.faces, small_mesh.faces)
+        assert np.allclose(loaded.vertices, small_mesh.vertices, atol=1e-6)
+        raw = loaded.metadata["_ply_raw"]["vertex"]["data"]  # (trimesh recomputes normals)
+        normals = np.stack([raw["nx"], raw["ny"], raw["nz"]], axis=-1).reshape(-1, 3)
+        assert np.allclose(normals, small_mesh.normals, atol=1e-6)
+        assert np.array_equal(loaded.visual.vertex_colors[:, :3],
+                              np.round(small_mesh.colors * 255))
+    if ext == ".stl":  # each face's unit normal follows its winding (float32 corners: 1e-4)
+        assert np.allclose(loaded.face_normals, small_mesh.to_trimesh().face_normals, atol=1e-4)
     assert list(tmp_path.iterdir()) == [path]
 
 
@@ -335,16 +346,19 @@ def test_save_is_atomic(small_mesh, tmp_path, monkeypatch):
         small_mesh.save(path)
     monkeypatch.undo()
 
-    def failing_export(self, file_type):
+    def failing(*args, **kwargs):
         raise RuntimeError("exporter failed")
 
-    monkeypatch.setattr(trimesh.Trimesh, "export", failing_export)
-    with pytest.raises(RuntimeError):
-        small_mesh.save(path)
-    with pytest.raises(RuntimeError):
-        small_mesh.save(tmp_path / "new.ply")
-    assert path.read_bytes() == b"old"
-    assert list(tmp_path.iterdir()) == [path]
+    # PLY is encoded here, OBJ by trimesh: a failure in either writes nothing
+    monkeypatch.setitem(ENCODERS, "ply", failing)
+    monkeypatch.setattr(trimesh.Trimesh, "export", failing)
+    obj = tmp_path / "m.obj"
+    obj.write_bytes(b"old")
+    for target in (path, obj, tmp_path / "new.ply", tmp_path / "new.obj"):
+        with pytest.raises(RuntimeError):
+            small_mesh.save(target)
+    assert path.read_bytes() == b"old" and obj.read_bytes() == b"old"
+    assert sorted(tmp_path.iterdir()) == sorted([path, obj])
 
 
 def test_save_rejects_unknown_extension(small_mesh, tmp_path):

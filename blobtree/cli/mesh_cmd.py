@@ -10,7 +10,7 @@ import numpy as np
 
 from ..api import polygonize
 from ..files import check_writable
-from ..mesh.export import FORMATS, import_trimesh
+from ..mesh.export import ENCODERS, FORMATS, import_trimesh
 from . import compile_notice, length_mm
 from .cluster import cluster, cluster_options
 from .scenes import resolve_scene, scene_view
@@ -52,7 +52,8 @@ def mesh(scene: str, output: Path, resolution: int, height: float | None,
         check_writable(output, "--output")
     except ValueError as exc:
         raise click.BadParameter(str(exc), param_hint="-o") from None
-    import_trimesh()  # now rather than after the work (and Ctrl-C-safe, see import_trimesh)
+    if FORMATS[output.suffix.lower()] not in ENCODERS:
+        import_trimesh()  # now rather than after the work (and Ctrl-C-safe, see import_trimesh)
     tree = resolve_scene(scene)
     start = time.perf_counter()
     with cluster(scheduler, dask_workers) as client, compile_notice():

@@ -15,7 +15,8 @@ from numba import njit
 from ..checks import Number, positive
 from ..files import atomic_path
 
-#: file extension -> trimesh export type (3MF's unit is the millimetre)
+#: file extension -> format; PLY and STL are encoded here (``ENCODERS``), the others by trimesh
+#: (3MF's unit is the millimetre)
 FORMATS = {".ply": "ply", ".obj": "obj", ".stl": "stl", ".glb": "glb", ".3mf": "3mf"}
 
 
@@ -41,6 +42,44 @@ def import_trimesh():
     return trimesh
 
 
+def _ply_bytes(mesh: Mesh) -> bytes:
+    """Binary little-endian PLY: float positions and normals, 8-bit RGBA colours, int faces."""
+    vertex = np.empty(len(mesh.vertices), dtype=[("p", "<f4", 3), ("n", "<f4", 3),
+                                                 ("c", "u1", 4)])
+    vertex["p"], vertex["n"] = mesh.vertices, mesh.normals
+    vertex["c"][:, :3] = np.round(np.clip(mesh.colors, 0.0, 1.0) * 255.0)
+    vertex["c"][:, 3] = 255
+    face = np.empty(len(mesh.faces), dtype=[("k", "u1"), ("v", "<i4", 3)])
+    face["k"], face["v"] = 3, mesh.faces
+    header = "\n".join([
+        "ply", "format binary_little_endian 1.0", "comment blobtree",
+        f"element vertex {len(vertex)}",
+        *(f"property float {a}" for a in ("x", "y", "z", "nx", "ny", "nz")),
+        *(f"property uchar {c}" for c in ("red", "green", "blue", "alpha")),
+        f"element face {len(face)}", "property list uchar int vertex_indices", "end_header", ""])
+    return header.encode("ascii") + vertex.tobytes() + face.tobytes()
+
+
+def _stl_bytes(mesh: Mesh) -> bytes:
+    """Binary STL: an 80-byte header, the triangle count, then each triangle's unit normal
+    (zero for a degenerate one) and corners as float32."""
+    corners = mesh.vertices[mesh.faces]
+    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    length = np.linalg.norm(normal, axis=1, keepdims=True)
+    floats = np.empty((len(corners), 12), dtype="<f4")
+    np.divide(normal, length, out=floats[:, :3], where=length > 0)
+    floats[:, :3][length[:, 0] == 0] = 0.0
+    floats[:, 3:] = corners.reshape(-1, 9)
+    # 50-byte records: the 48 bytes of floats, then a zero 16-bit attribute count
+    records = np.zeros((len(corners), 25), dtype="<u2")
+    records[:, :24] = floats.view("<u2")
+    return b"blobtree".ljust(80, b" ") + np.uint32(len(corners)).tobytes() + records.tobytes()
+
+
+#: format -> encoder of the formats written here (no trimesh needed)
+ENCODERS = {"ply": _ply_bytes, "stl": _stl_bytes}
+
+
 @njit(cache=True)
 def _union_faces(faces, nverts):
     """Union-find over vertices joined by faces; returns each vertex's root."""
@@ -61,6 +100,18 @@ def _union_faces(faces, nverts):
     for v in range(nverts):
         parent[v] = find(v)
     return parent
+
+
+@njit(cache=True)
+def _piece_volumes(vertices, faces, pieces, n):
+    """Per piece, the sum over its faces of the signed volume of the tetrahedron the face makes
+    with the origin, a . (b x c) / 6 (the divergence theorem)."""
+    out = np.zeros(n)
+    for f in range(faces.shape[0]):
+        a, b, c = vertices[faces[f, 0]], vertices[faces[f, 1]], vertices[faces[f, 2]]
+        out[pieces[f]] += (a[0] * (b[1] * c[2] - b[2] * c[1]) + a[1] * (b[2] * c[0] - b[0] * c[2])
+                           + a[2] * (b[0] * c[1] - b[1] * c[0])) / 6.0
+    return out
 
 
 @dataclass
@@ -139,9 +190,10 @@ class Mesh:
         piece, if already known."""
         if len(self.faces) == 0:
             return np.zeros(0)
-        v = self.vertices[self.faces]
-        tet = np.einsum("ij,ij->i", v[:, 0], np.cross(v[:, 1], v[:, 2])) / 6.0
-        return np.bincount(self._pieces() if pieces is None else pieces, weights=tet)
+        pieces = self._pieces() if pieces is None else pieces
+        return _piece_volumes(np.ascontiguousarray(self.vertices, dtype=np.float64),
+                              np.ascontiguousarray(self.faces, dtype=np.int64), pieces,
+                              int(pieces.max()) + 1)
 
     def without_small_pieces(self, min_volume: float) -> tuple[Mesh, int]:
         """The mesh without the pieces enclosing less than ``min_volume`` (in absolute value:
@@ -194,7 +246,8 @@ class Mesh:
         if len(self.faces) == 0:
             raise ValueError("the mesh has no triangles (the surface is absent or smaller than a "
                              "cell: try a finer resolution); nothing written")
-        data = self.to_trimesh().export(file_type=kind)
+        encode = ENCODERS.get(kind)
+        data = encode(self) if encode else self.to_trimesh().export(file_type=kind)
         if isinstance(data, str):
             data = data.encode()
         with atomic_path(path) as tmp:
