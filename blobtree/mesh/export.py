@@ -67,8 +67,7 @@ def _stl_bytes(mesh: Mesh) -> bytes:
     normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
     length = np.linalg.norm(normal, axis=1, keepdims=True)
     floats = np.empty((len(corners), 12), dtype="<f4")
-    np.divide(normal, length, out=floats[:, :3], where=length > 0)
-    floats[:, :3][length[:, 0] == 0] = 0.0
+    floats[:, :3] = normal / np.where(length > 0, length, 1.0)  # a zero normal stays zero
     floats[:, 3:] = corners.reshape(-1, 9)
     # 50-byte records: the 48 bytes of floats, then a zero 16-bit attribute count
     records = np.zeros((len(corners), 25), dtype="<u2")
