@@ -196,6 +196,33 @@ def test_bend_map_kernel_matches_the_reference_before_on_and_past_the_arc():
     assert all(r.sum() > 100 for r in regions)  # before, on and past the arc
 
 
+def test_branch_free_atan2_matches_numpy_in_every_octant():
+    """kmath.atan2 (a polynomial, so loops over points vectorise) against numpy's arctan2:
+    every octant, both sides of the reduction at tan(pi/8), tiny and huge ratios, axes."""
+    import numba
+
+    from blobtree.nodes import kmath
+
+    rng = np.random.default_rng(7)
+    angle = rng.uniform(-math.pi, math.pi, 20000)
+    radius = 10.0 ** rng.uniform(-200, 200, 20000)
+    y, x = radius * np.sin(angle), radius * np.cos(angle)
+    near = math.pi / 8 + rng.uniform(-1e-9, 1e-9, 2000)  # around the reduction's switch
+    y = np.concatenate([y, np.sin(near), [0.0, 0.0, 1.0, -1.0, 0.0, 1e-300, 1.0]])
+    x = np.concatenate([x, np.cos(near), [1.0, -1.0, 0.0, 0.0, 0.0, 1.0, 1e-300]])
+
+    @numba.njit
+    def run(y, x, out):
+        for i in range(y.shape[0]):
+            out[i] = kmath.atan2(y[i], x[i])
+
+    out = np.empty(len(y))
+    run(y, x, out)
+    ref = np.arctan2(y, x)
+    assert np.abs(out - ref).max() <= 4.5e-16
+    assert np.all(np.abs(out - ref) <= 1e-15 * np.abs(ref) + 1e-300)
+
+
 def test_twist_and_taper_move_the_shape():
     bar = bt.Segment((-1, 0, 0), (1, 0, 0), radius=0.2).translate(0, 0, 0)
     tw = bt.Segment((0, 0, 0), (0, 2, 0), radius=0.2).translate(0.5, 0, 0).twist(90, axis="y")

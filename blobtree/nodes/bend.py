@@ -10,36 +10,43 @@ import numpy as np
 from .. import geometry as geo
 from ..checks import AXES, Number, positive
 from ..jit import kernel
+from . import kmath
 from .base import Layout, WarpKernels, register
 from .params import Param
 from .warp import PERM_END, Warp
 
-LAYOUT = Layout(PERM_END, k=1, length=1)
+LAYOUT = Layout(PERM_END, k=1, length=1, end_sin=1, end_cos=1)
 #: The smallest bend, in degrees: below it the circle's centre is so far away that its maths
 #: loses all precision (and the bend does nothing visible).
 MIN_DEGREES = 1e-3
-K, LENGTH = LAYOUT.offsets
+K, LENGTH, END_SIN, END_COS = LAYOUT.offsets
 
 
 @kernel
 def bend_map(p, o, X, Y, Z):
     """Canonical bend along x toward +y with curvature k over [0, length].  On the arc a point at
-    angle phi and distance rho from the centre of curvature (0, 1/k) maps to (phi / k, 1/k - rho):
-    no sine or cosine (sin phi = u / rho, cos phi = v / rho)."""
-    k, length = p[o + K], p[o + LENGTH]
+    angle phi and distance rho from the centre of curvature (0, 1/k) maps to (phi / k, 1/k - rho)
+    (no sine or cosine: sin phi = u / rho, cos phi = v / rho); before it (phi <= 0) it stays;
+    past its end angle theta = k length it continues straight along the end tangent (sin theta,
+    cos theta are parameters).  All three are computed and one is selected, without branches,
+    so that a loop over many points vectorises (``kmath.atan2`` likewise)."""
+    k, length, sn, cs = p[o + K], p[o + LENGTH], p[o + END_SIN], p[o + END_COS]
     ik = 1.0 / k
+    end = k * length
     u, v = X, ik - Y
-    phi = math.atan2(u, v)
-    if 0.0 < phi < k * length:
-        rho2 = u * u + v * v
-        rho = math.sqrt(rho2)
-        return phi * ik, ik - rho, Z, v / (k * rho2), u / (k * rho2), 0.0, -u / rho, v / rho, \
-            0.0, 0.0, 0.0, 1.0
-    th = 0.0 if phi <= 0.0 else k * length  # before the arc, or past its end: straight
-    sn, cs = math.sin(th), math.cos(th)
+    phi = kmath.atan2(u, v)
+    rho2 = u * u + v * v
+    rho = math.sqrt(rho2)
+    arc = (phi > 0.0) & (phi < end)
+    past = phi >= end
     dx, dy = X - sn * ik, Y - (1.0 - cs) * ik
-    return th * ik + dx * cs + dy * sn, -dx * sn + dy * cs, Z, cs, sn, 0.0, -sn, cs, 0.0, \
-        0.0, 0.0, 1.0
+    qx = phi * ik if arc else (end * ik + dx * cs + dy * sn if past else X)
+    qy = ik - rho if arc else (-dx * sn + dy * cs if past else Y)
+    j00 = v / (k * rho2) if arc else (cs if past else 1.0)
+    j01 = u / (k * rho2) if arc else (sn if past else 0.0)
+    j10 = -u / rho if arc else (-sn if past else 0.0)
+    j11 = v / rho if arc else (cs if past else 1.0)
+    return qx, qy, Z, j00, j01, 0.0, j10, j11, 0.0, 0.0, 0.0, 1.0
 
 
 @register
@@ -100,7 +107,9 @@ class Bend(Warp):
         return m
 
     def pack(self):
-        return LAYOUT.pack(k=self.k, length=self.length)
+        end = self.k * self.length
+        return LAYOUT.pack(k=self.k, length=self.length, end_sin=math.sin(end),
+                           end_cos=math.cos(end))
 
     def warp_points(self, P):
         k, ik = self.k, 1.0 / self.k
