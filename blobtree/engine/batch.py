@@ -10,7 +10,8 @@ the compiler vectorises them (numpy's error model: no division checks inside the
 The value stack holds one row of ``SUB`` values per entry.  A box test (BOX, PUSHPT, warps) skips
 its subtree only when no point of the batch is inside; the other points of the batch then
 evaluate the subtree exactly (a node's field is 0 outside its box), so the results equal
-``eval_point``'s.  Field values only: gradients and colours take ``eval_point``.
+``eval_point``'s.  Gradients and colours (:func:`eval_rows_full`) run ``eval_point``'s own steps
+point by point inside each instruction: each instruction's dispatch then serves the batch.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from ..parallel import parallel_for, threads
 from .dispatch import (
     K_BOX,
     K_OPERATOR,
+    K_PAINT,
     K_POPPT,
     K_PRIMITIVE,
     K_PUSHPT,
@@ -33,7 +35,17 @@ from .dispatch import (
     prim_rows,
     warp_rows,
 )
-from .interp import outside
+from .interp import (
+    DEFAULT_GREY,
+    apply_warp,
+    combine,
+    outside,
+    paint_top,
+    pop_frame,
+    push_frame,
+    push_primitive,
+    push_zero,
+)
 from .specialize import Grid, cell_of
 
 #: Points per batch (the length of a value-stack row).
@@ -142,14 +154,88 @@ def _bucket_scatter(t0, t1, P, cell, offsets, xyz, pos):
                 pos[j] = k
 
 
+@kernel
+def eval_rows_full(code, params, boxes, a, b, pts, nb, vs, ps):
+    """``interp.eval_point`` in mode 2 (field, gradient, colour) on the nb points pts[:nb] at
+    once: rows a:b of code and boxes as in :func:`eval_rows`, each instruction dispatched once
+    for all of them; point m keeps its own stacks vs[m] (depth, 7) and ps[m] (depth, 30) and
+    its results in vs[m, 0].  A point outside a box the batch enters evaluates the subtree to
+    the zero it would have skipped."""
+    n = b - a
+    p = params
+    sp = 0
+    pp = 0
+    i = 0
+    while i < n:
+        op = code[a + i, 0]
+        o = code[a + i, 1]
+        kind = kind_of(op)
+        if kind == K_PRIMITIVE:
+            for m in range(nb):
+                if outside(boxes, a + i, pts[m, 0], pts[m, 1], pts[m, 2]):
+                    push_zero(vs[m], sp, 2)
+                else:
+                    push_primitive(op, code, a + i, p, o, pts[m, 0], pts[m, 1], pts[m, 2], 2,
+                                   vs[m], sp)
+            sp += 1
+            i += 1
+        elif kind == K_OPERATOR:
+            k = code[a + i, 3]
+            for m in range(nb):
+                combine(op, vs[m], sp - k, k, p, o, 2)
+            sp += 1 - k
+            i += 1
+        elif kind == K_BOX or kind == K_PUSHPT or kind == K_WARP:
+            inside = False
+            for m in range(nb):
+                if not outside(boxes, a + i, pts[m, 0], pts[m, 1], pts[m, 2]):
+                    inside = True
+                    break
+            if not inside:
+                for m in range(nb):
+                    push_zero(vs[m], sp, 2)
+                sp += 1
+                i = code[a + i, 2]
+                continue
+            if kind == K_PUSHPT:
+                pp += 1
+                for m in range(nb):
+                    pts[m, 0], pts[m, 1], pts[m, 2] = push_frame(p, o, pts[m, 0], pts[m, 1],
+                                                                 pts[m, 2], ps[m], pp, 2)
+            elif kind == K_WARP:
+                for m in range(nb):
+                    pts[m, 0], pts[m, 1], pts[m, 2] = apply_warp(op, p, o, pts[m, 0], pts[m, 1],
+                                                                 pts[m, 2], ps[m], pp, 2)
+            i += 1
+        elif kind == K_POPPT:
+            for m in range(nb):
+                pts[m, 0], pts[m, 1], pts[m, 2] = pop_frame(vs[m], sp - 1, ps[m], pp, 2)
+            pp -= 1
+            i += 1
+        elif kind == K_PAINT:
+            for m in range(nb):
+                paint_top(op, p, o, pts[m, 0], pts[m, 1], pts[m, 2], vs[m], sp - 1, 2)
+            i += 1
+        else:  # K_ZERO
+            for m in range(nb):
+                push_zero(vs[m], sp, 2)
+            sp += 1
+            i += 1
+
+
 @kernel(nrt=True, nogil=True)
 def _eval_runs(t0, t1, start, gc, gb, params, first, xyz, depth, slab, vals):
     """Evaluate slabs t0..t1 - 1 of ``slab`` cell-sorted points of xyz (slabs, so crowded cells
-    spread over the threads), each cell's run in batches of SUB."""
+    spread over the threads), each cell's run in batches of SUB: the field into vals[:, 0], or
+    with vals (M, 7) also the gradient and colour (:func:`eval_rows_full`)."""
     m = xyz.shape[0]
+    full = vals.shape[1] == 7
     pts = np.zeros((depth + 1, 3, SUB))
     vs = np.empty((depth, SUB))
     tmp = np.empty((depth, 7))
+    points = np.empty((SUB, 3))
+    stacks = np.empty((SUB, depth, 7))
+    frames = np.empty((SUB, depth, 30))
     for t in range(t0, t1):
         s0, s1 = t * slab, min(m, (t + 1) * slab)
         c = np.searchsorted(first, s0, side="right") - 1
@@ -158,19 +244,36 @@ def _eval_runs(t0, t1, start, gc, gb, params, first, xyz, depth, slab, vals):
             while first[c + 1] <= s:
                 c += 1
             nb = min(SUB, first[c + 1] - s, s1 - s)
-            for r in range(3):
+            if full:
                 for k in range(nb):
-                    pts[0, r, k] = xyz[s + k, r]
-            eval_rows(gc, params, gb, start[c], start[c + 1], pts, nb, vs, tmp)
-            for k in range(nb):
-                vals[s + k] = vs[0, k]
+                    for r in range(3):
+                        points[k, r] = xyz[s + k, r]
+                eval_rows_full(gc, params, gb, start[c], start[c + 1], points, nb, stacks,
+                               frames)
+                for k in range(nb):
+                    for r in range(7):
+                        vals[s + k, r] = stacks[k, 0, r]
+            else:
+                for r in range(3):
+                    for k in range(nb):
+                        pts[0, r, k] = xyz[s + k, r]
+                eval_rows(gc, params, gb, start[c], start[c + 1], pts, nb, vs, tmp)
+                for k in range(nb):
+                    vals[s + k, 0] = vs[0, k]
             s += nb
 
 
 @kernel(nogil=True)
-def _unsort(j0, j1, vals, pos, out):
+def _unsort(j0, j1, vals, pos, out_f, out_g, out_c):
+    """Results back in the points' order (outside the grid: a zero field, grey)."""
+    full = vals.shape[1] == 7
     for j in range(j0, j1):
-        out[j] = vals[pos[j]] if pos[j] >= 0 else 0.0
+        q = pos[j]
+        out_f[j] = vals[q, 0] if q >= 0 else 0.0
+        if full:
+            for r in range(3):
+                out_g[j, r] = vals[q, 1 + r] if q >= 0 else 0.0
+                out_c[j, r] = vals[q, 4 + r] if q >= 0 else DEFAULT_GREY
 
 
 #: Points partitioned at a time (scratch: ~60 bytes per point of a block).
@@ -179,11 +282,12 @@ BLOCK = 1 << 20
 SLAB = 1 << 13
 
 
-def field_sorted(grid: Grid, params: np.ndarray, depth: int, P: np.ndarray, out: np.ndarray
-                 ) -> None:
-    """Field values of the (N, 3) points P into out, through ``grid`` (program.Grid): blocks of
-    points are partitioned by cell in parallel parts, evaluated cell by cell, and the values put
-    back in the points' order."""
+def eval_sorted(grid: Grid, params: np.ndarray, depth: int, P: np.ndarray, out_f: np.ndarray,
+                out_g: np.ndarray | None = None, out_c: np.ndarray | None = None) -> None:
+    """Field values of the (N, 3) points P into out_f (and, given out_g and out_c (N, 3), the
+    gradients and colours), through ``grid`` (program.Grid): blocks of points are partitioned
+    by cell in parallel parts, evaluated cell by cell, and the results put back in the points'
+    order."""
     start, gc, gb = grid.arrays
     lo, size, dims = grid.frame
     ncell = len(start) - 1
@@ -192,7 +296,9 @@ def field_sorted(grid: Grid, params: np.ndarray, depth: int, P: np.ndarray, out:
     first = np.zeros(ncell + 1, dtype=np.int64)
     m = min(len(P), BLOCK)
     cell, pos = np.empty(m, dtype=np.int32), np.empty(m, dtype=np.int32)
-    xyz, vals = np.empty((m, 3)), np.empty(m)
+    xyz, vals = np.empty((m, 3)), np.empty((m, 1 if out_g is None else 7))
+    if out_g is None:
+        out_g = out_c = np.empty((0, 3))
     for a in range(0, len(P), BLOCK):
         Q = P[a:a + BLOCK]
         parallel_for(_bucket_counts, nparts, Q, lo, size, dims, cell, counts, parts=nparts)
@@ -202,4 +308,5 @@ def field_sorted(grid: Grid, params: np.ndarray, depth: int, P: np.ndarray, out:
         parallel_for(_bucket_scatter, nparts, Q, cell, offsets, xyz, pos, parts=nparts)
         parallel_for(_eval_runs, (k + SLAB - 1) // SLAB, start, gc, gb, params, first, xyz[:k],
                      depth, SLAB, vals)
-        parallel_for(_unsort, len(Q), vals, pos, out[a:a + BLOCK])
+        parallel_for(_unsort, len(Q), vals, pos, out_f[a:a + BLOCK], out_g[a:a + BLOCK],
+                     out_c[a:a + BLOCK])

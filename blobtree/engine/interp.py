@@ -123,7 +123,38 @@ def apply_warp(op, p, o, x, y, z, ps, pp, mode):
 
 
 @kernel(inline="always")
-def _primitive(op, code, i, p, o, px, py, pz, mode, vs, sp):
+def push_frame(p, o, x, y, z, ps, pp, mode):
+    """Enter a warp's frame (PUSHPT): save the point (and, for gradients, the frame map's
+    Jacobian) in ps[pp]; return the point in the frame."""
+    ps[pp, 0], ps[pp, 1], ps[pp, 2] = x, y, z  # the point to restore
+    if mode > 0:  # the Jacobian so far, for the gradient
+        for r in range(3):
+            for c in range(3):
+                ps[pp, 3 + 3 * r + c] = p[o + 4 * r + c]
+    return map_point(p, o, x, y, z)
+
+
+@kernel(inline="always")
+def pop_frame(vs, t, ps, pp, mode):
+    """Leave a warp's frame (POPPT): the gradient on top of the stack back to the outer frame,
+    g <- J^T g; return the saved point."""
+    if mode > 0:
+        gx, gy, gz = vs[t, 1], vs[t, 2], vs[t, 3]
+        vs[t, 1] = ps[pp, 3] * gx + ps[pp, 6] * gy + ps[pp, 9] * gz
+        vs[t, 2] = ps[pp, 4] * gx + ps[pp, 7] * gy + ps[pp, 10] * gz
+        vs[t, 3] = ps[pp, 5] * gx + ps[pp, 8] * gy + ps[pp, 11] * gz
+    return ps[pp, 0], ps[pp, 1], ps[pp, 2]
+
+
+@kernel(inline="always")
+def paint_top(op, p, o, x, y, z, vs, t, mode):
+    """A paint node (mode 2): colour the value on top of the stack where its field is > 0."""
+    if mode > 1 and vs[t, 0] > 0.0:
+        vs[t, 4], vs[t, 5], vs[t, 6] = paint(op, p, o, x, y, z, vs[t, 1], vs[t, 2], vs[t, 3])
+
+
+@kernel(inline="always")
+def push_primitive(op, code, i, p, o, px, py, pz, mode, vs, sp):
     """Push a primitive's field (and gradient, colour) at the frame point."""
     qx, qy, qz = map_point(p, o, px, py, pz)
     s, sx, sy, sz = prim_s(op, p, o, qx, qy, qz)
@@ -168,7 +199,7 @@ def eval_point(code, params, boxes, x, y, z, mode, vs, ps):
             if outside(boxes, i, px, py, pz):
                 push_zero(vs, sp, mode)
             else:
-                _primitive(op, code, i, p, o, px, py, pz, mode, vs, sp)
+                push_primitive(op, code, i, p, o, px, py, pz, mode, vs, sp)
             sp += 1
             i += 1
         elif kind == K_OPERATOR:
@@ -184,32 +215,17 @@ def eval_point(code, params, boxes, x, y, z, mode, vs, ps):
                 i = code[i, 2]
                 continue
             if kind == K_PUSHPT:
-                nx, ny, nz = map_point(p, o, px, py, pz)
                 pp += 1
-                ps[pp, 0], ps[pp, 1], ps[pp, 2] = px, py, pz  # the point to restore
-                if mode > 0:  # the Jacobian so far, for the gradient
-                    for r in range(3):
-                        for c in range(3):
-                            ps[pp, 3 + 3 * r + c] = p[o + 4 * r + c]
-                px, py, pz = nx, ny, nz
+                px, py, pz = push_frame(p, o, px, py, pz, ps, pp, mode)
             elif kind == K_WARP:
                 px, py, pz = apply_warp(op, p, o, px, py, pz, ps, pp, mode)
             i += 1
         elif kind == K_POPPT:
-            t = sp - 1
-            if mode > 0:  # gradient back to the outer frame: g <- J^T g
-                gx, gy, gz = vs[t, 1], vs[t, 2], vs[t, 3]
-                vs[t, 1] = ps[pp, 3] * gx + ps[pp, 6] * gy + ps[pp, 9] * gz
-                vs[t, 2] = ps[pp, 4] * gx + ps[pp, 7] * gy + ps[pp, 10] * gz
-                vs[t, 3] = ps[pp, 5] * gx + ps[pp, 8] * gy + ps[pp, 11] * gz
-            px, py, pz = ps[pp, 0], ps[pp, 1], ps[pp, 2]
+            px, py, pz = pop_frame(vs, sp - 1, ps, pp, mode)
             pp -= 1
             i += 1
         elif kind == K_PAINT:
-            t = sp - 1
-            if mode > 1 and vs[t, 0] > 0.0:
-                vs[t, 4], vs[t, 5], vs[t, 6] = paint(op, p, o, px, py, pz, vs[t, 1], vs[t, 2],
-                                                     vs[t, 3])
+            paint_top(op, p, o, px, py, pz, vs, sp - 1, mode)
             i += 1
         else:  # K_ZERO
             push_zero(vs, sp, mode)
@@ -342,7 +358,7 @@ def _bounded(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox, o
                 vs[sp, BOUND] = _prim_bound(op, p, code[i, 1], lips[i], ray, pp, lox, loy, loz,
                                             hix, hiy, hiz, ox, oy, oz, dx, dy, dz, length)
                 if not outside(boxes, i, px, py, pz):
-                    _primitive(op, code, i, p, code[i, 1], px, py, pz, 0, vs, sp)
+                    push_primitive(op, code, i, p, code[i, 1], px, py, pz, 0, vs, sp)
             sp += 1
             i += 1
         elif kind == K_OPERATOR:

@@ -90,10 +90,10 @@ class Program:
         c = np.empty((n, 3)) if mode > 1 else np.empty((0, 3))
         grid = self.grid if n >= GRID_MIN_POINTS else None
         if grid is not None and mode == 0:
-            B.field_sorted(grid, self.params, self.depth, P, f)
-        elif grid is not None:
-            parallel_for(S.eval_grid_range, n, *grid.arrays, self.params, *grid.frame, P, mode,
-                         self.depth, f, g, c)
+            B.eval_sorted(grid, self.params, self.depth, P, f)
+        elif grid is not None:  # (mode 1 computes the colours too: it costs nothing more)
+            B.eval_sorted(grid, self.params, self.depth, P, f, g, c if mode > 1 else
+                          np.empty((n, 3)))
         else:
             parallel_for(K.eval_range, n, self.code, self.params, self.boxes, P, mode,
                          self.depth, f, g, c)

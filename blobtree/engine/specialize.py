@@ -11,8 +11,8 @@ are shared with the full program.  Points in the region evaluate exactly as with
 program.
 
 ``build_grid`` specialises the program to every cell of a grid over the tree's bounds (done
-once per program); ``eval_point_grid`` finds a point's cell and runs that cell's short program:
-for the 126-blob whorl a point then meets ~8 instructions instead of ~26.
+once per program); ``batch.eval_sorted`` runs each point through its cell's short program: for
+the 126-blob whorl a point then meets ~8 instructions instead of ~26.
 """
 
 from __future__ import annotations
@@ -35,7 +35,6 @@ from .dispatch import (
     ZERO_REST,
     kind_of,
 )
-from .interp import eval_point, push_zero, scratch
 
 
 @kernel
@@ -261,32 +260,3 @@ def cell_of(x, y, z, lo, size, dims):
             return -1
         c = c * dims[ax] + min(int(t), dims[ax] - 1)
     return c
-
-
-@kernel(literal=True)
-def eval_point_grid(start, gc, gb, params, lo, size, dims, x, y, z, mode, vs, ps):
-    """``kernels.eval_point`` through the grid of specialised programs (0 outside the grid)."""
-    c = cell_of(x, y, z, lo, size, dims)
-    if c < 0:
-        push_zero(vs, 0, mode)
-        return 0.0
-    a, b = start[c], start[c + 1]
-    return eval_point(gc[a:b], params, gb[a:b], x, y, z, mode, vs, ps)
-
-
-@kernel(nrt=True, nogil=True)
-def eval_grid_range(start, stop, gstart, gc, gb, params, lo, size, dims, P, mode, depth, out_f,
-                    out_g, out_c):
-    """Evaluate points start..stop - 1 of (N, 3) P through the grid of specialised programs."""
-    vs, ps = scratch(depth)
-    for m in range(start, stop):
-        if mode == 0:
-            out_f[m] = eval_point_grid(gstart, gc, gb, params, lo, size, dims, P[m, 0],
-                                       P[m, 1], P[m, 2], 0, vs, ps)
-            continue
-        out_f[m] = eval_point_grid(gstart, gc, gb, params, lo, size, dims, P[m, 0], P[m, 1],
-                                   P[m, 2], 2, vs, ps)
-        if mode > 0:
-            out_g[m, 0], out_g[m, 1], out_g[m, 2] = vs[0, 1], vs[0, 2], vs[0, 3]
-        if mode > 1:
-            out_c[m, 0], out_c[m, 1], out_c[m, 2] = vs[0, 4], vs[0, 5], vs[0, 6]

@@ -98,7 +98,7 @@ def atan2(y, x):
 @kernel
 def turn(y, x):
     """atan2(y, x) as a fraction of a turn in [0, 1) (as ``texture.turn``)."""
-    t = math.atan2(y, x) / (2.0 * math.pi)
+    t = atan2(y, x) / (2.0 * math.pi)
     if t < 0.0:
         t += 1.0
     return 0.0 if t >= 1.0 else t

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..checks import Number
@@ -10,10 +12,17 @@ from .base import BOUND, Node, Operator, OperatorKernels, register, weighted_col
 from .params import LARGEST_N, Param
 
 
+@kernel(inline="always")
+def _power(r, n, tiny):
+    """r^n for r in [0, 1]: 0 below ``tiny`` (where it underflows to at most 1e-304)."""
+    return r ** n if r >= tiny else 0.0
+
+
 @kernel
 def super_combine(vs, b, k, p, o, mode):
     """(sum f_j^n)^(1/n) as m (sum (f_j / m)^n)^(1/n), m the largest f_j: exact and finite for
-    any n (f^400 would underflow); the colour weights are (f_j / m)^n."""
+    any n (f^400 would underflow); the colour weights are (f_j / m)^n, the gradient's
+    (f_j / f)^(n - 1) = (f_j / m)^n (m / f_j) s^((1 - n) / n), one power per child."""
     n = p[o]
     m = 0.0
     for j in range(b, b + k):
@@ -22,19 +31,21 @@ def super_combine(vs, b, k, p, o, mode):
         vs[b, 0] = 0.0
         vs[b, 1] = vs[b, 2] = vs[b, 3] = 0.0
         return
+    tiny = math.exp(-700.0 / n)
     s = 0.0
     for j in range(b, b + k):
-        s += (vs[j, 0] / m) ** n
+        s += _power(vs[j, 0] / m, n, tiny)
     f = m * s ** (1.0 / n)
     if mode > 0:
+        scale = m * s ** ((1.0 - n) / n)
         g0 = g1 = g2 = 0.0
         c0 = c1 = c2 = 0.0
         for j in range(b, b + k):
-            w = (vs[j, 0] / f) ** (n - 1.0)
+            cw = _power(vs[j, 0] / m, n, tiny)
+            w = cw * scale / vs[j, 0] if cw > 0.0 else 0.0
             g0 += w * vs[j, 1]
             g1 += w * vs[j, 2]
             g2 += w * vs[j, 3]
-            cw = (vs[j, 0] / m) ** n
             c0 += cw * vs[j, 4]
             c1 += cw * vs[j, 5]
             c2 += cw * vs[j, 6]
@@ -64,6 +75,7 @@ def super_bound(vs, b, k, p, o, reach):
 @kernel
 def super_rows(vs, b, k, p, o, nb):
     n = p[o]
+    tiny = math.exp(-700.0 / n)
     for m in range(nb):
         top = 0.0
         for j in range(b, b + k):
@@ -71,7 +83,7 @@ def super_rows(vs, b, k, p, o, nb):
         if top > 0.0:
             s = 0.0
             for j in range(b, b + k):
-                s += (vs[j, m] / top) ** n
+                s += _power(vs[j, m] / top, n, tiny)
             vs[b, m] = top * s ** (1.0 / n)
         else:
             vs[b, m] = 0.0

@@ -30,19 +30,18 @@ def helico_locate(p, o, x, y, z):
     unit vector (rx, rz) and D."""
     r0, rho_, cot = p[o + R0], p[o + RHO], p[o + COT_BETA]
     rho = math.sqrt(x * x + z * z)
-    phi = math.degrees(math.atan2(-z, x))
+    phi = math.degrees(kmath.atan2(-z, x))
     if phi < 0.0:
         phi += 360.0
-    best_t, best_d = 0.0, np.inf
+    best_t, best_d, best_r = 0.0, np.inf, 0.0
+    r = r0 * rho_ ** (phi / 360.0)  # the radius at phi; each whorl out, rho times larger
     for k in range(int(p[o + THETA_MAX] // 360.0) + 2):
-        t = phi + 360.0 * k
-        r = r0 * rho_ ** (t / 360.0)
         d = ((rho - r) ** 2 + (y - r * cot) ** 2) / (r * r)  # relative to the whorl's size
         if d < best_d:
-            best_t, best_d = t, d
-    r = r0 * rho_ ** (best_t / 360.0)
+            best_t, best_d, best_r = phi + 360.0 * k, d, r
+        r *= rho_
     rx, rz = (x / rho, z / rho) if rho > 0.0 else (0.0, 0.0)
-    return best_t, rho - r, y - r * cot, rx, rz, p[o + D_OVER_R] * r
+    return best_t, rho - best_r, y - best_r * cot, rx, rz, p[o + D_OVER_R] * best_r
 
 
 @kernel
