@@ -14,7 +14,7 @@ from .params import LARGEST_N, Param
 
 @kernel(inline="always")
 def _power(r, n, tiny):
-    """r^n for r in [0, 1]: 0 below ``tiny`` (where it underflows to at most 1e-304)."""
+    """r^n for r in [0, 1]: 0 below ``tiny`` (``op_params``: there r^n < 1e-304)."""
     return r ** n if r >= tiny else 0.0
 
 
@@ -23,7 +23,7 @@ def super_combine(vs, b, k, p, o, mode):
     """(sum f_j^n)^(1/n) as m (sum (f_j / m)^n)^(1/n), m the largest f_j: exact and finite for
     any n (f^400 would underflow); the colour weights are (f_j / m)^n, the gradient's
     (f_j / f)^(n - 1) = (f_j / m)^n (m / f_j) s^((1 - n) / n), one power per child."""
-    n = p[o]
+    n, tiny = p[o], p[o + 1]
     m = 0.0
     for j in range(b, b + k):
         m = max(m, vs[j, 0])
@@ -31,7 +31,6 @@ def super_combine(vs, b, k, p, o, mode):
         vs[b, 0] = 0.0
         vs[b, 1] = vs[b, 2] = vs[b, 3] = 0.0
         return
-    tiny = math.exp(-700.0 / n)
     s = 0.0
     for j in range(b, b + k):
         s += _power(vs[j, 0] / m, n, tiny)
@@ -74,8 +73,7 @@ def super_bound(vs, b, k, p, o, reach):
 
 @kernel
 def super_rows(vs, b, k, p, o, nb):
-    n = p[o]
-    tiny = math.exp(-700.0 / n)
+    n, tiny = p[o], p[o + 1]
     for m in range(nb):
         top = 0.0
         for j in range(b, b + k):
@@ -103,7 +101,9 @@ class SuperBlend(Operator):
     KERNELS = OperatorKernels(combine=super_combine, rows=super_rows, bound=super_bound)
 
     def op_params(self):
-        return [self.n]
+        """n, and the ratio below which a child's (f_j / m)^n counts as 0 (it would be under
+        1e-304)."""
+        return [self.n, math.exp(-700.0 / self.n)]
 
     def _ref(self, P, look=None):
         f, g, c = self._refs(P, look)
