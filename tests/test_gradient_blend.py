@@ -131,6 +131,27 @@ def test_the_tracer_finds_the_surface_the_field_has():
             assert hit == pytest.approx(3.0 - ys[inside[0]], abs=2e-3)
 
 
+def test_ties_take_the_first_childs_colour_in_engine_and_reference():
+    """Two copies of a segment (its ends swapped): beyond their common end their fields agree
+    up to rounding, which went one way in the engine and the other in the reference, so the
+    colours differed (found by the thorough hypothesis profile).  Ties go to the first child."""
+    from blobtree.engine import GRID_MIN_POINTS
+    from blobtree.nodes.texture_map import Texture
+
+    image = np.random.default_rng(0).uniform(0.0, 1.0, (4, 4, 3))
+    first = bt.Segment((0, 0, 1), (0, 0, 0), radius=1.0)
+    second = Texture(bt.Segment((0, 0, 0), (0, 0, 1), radius=1.0), image=image,
+                     mapping="primitive", wrap="repeat")
+    tree = bt.GradientBlend(first, second, step=0.0, floor=0.0, power=1.0, contact=0.0)
+    P = np.random.default_rng(1).uniform(-1.0, 1.0, (GRID_MIN_POINTS + 5000, 3))
+    P[:, 2] = np.random.default_rng(2).uniform(-1.0, 0.0, len(P))  # beyond the common end
+    f, _, c = tree.program().evaluate(P)
+    fr, _, cr = tree.reference(P)
+    live = fr > 1e-9
+    assert live.sum() > 5000
+    np.testing.assert_allclose(c[live], cr[live], atol=1e-9)
+
+
 @pytest.mark.parametrize("kwargs, name", [({"power": 0.5}, "power"), ({"contact": 0.5}, "contact"),
                                           ({"step": -1.0}, "step"), ({"floor": np.nan}, "floor"),
                                           ({"step": 5e-324}, "step"), ({"floor": 1e-300}, "floor")])

@@ -37,7 +37,7 @@ import numpy as np
 from ..checks import Number
 from ..jit import kernel
 from . import kmath
-from .base import BOUND, ISO, Node, Operator, OperatorKernels, register
+from .base import BOUND, ISO, TIE, Node, Operator, OperatorKernels, register
 from .params import Param
 
 #: The automatic step is at least this fraction of the smaller child's box diagonal.
@@ -103,7 +103,7 @@ def gradient_combine(vs, b, k, p, o, mode):
     bx, by, bz, gb = _direction(vs, b + 4, h, floor)
     c = min(max(ax * bx + ay * by + az * bz, -1.0), 1.0)
     w = (1.0 - c * c) ** power
-    a_wins = fa >= fb
+    a_wins = not fb > fa + TIE  # ties (base.TIE) go to the first child, as in the reference
     top, low = (fa, fb) if a_wins else (fb, fa)
     m, dm = share(low, p[o + CONTACT])
     value = top + w * m
@@ -246,7 +246,7 @@ class GradientBlend(Operator):
         (fa, ga, ca, na, norm_a, dDa), (fb, gb, cb, nb, norm_b, dDb) = parts
         c = np.clip((na * nb).sum(axis=1), -1.0, 1.0)
         w = (1.0 - c * c) ** power
-        a_wins = fa >= fb
+        a_wins = ~(fb > fa + TIE)  # ties go to the first child (base.TIE)
         top, low = np.where(a_wins, fa, fb), np.where(a_wins, fb, fa)
         m0 = self.contact  # the share t of the lower field, and dt/dlow
         ramp = np.maximum(low - m0, 0.0) / (1.0 - 2.0 * m0)
