@@ -45,11 +45,12 @@ for shadows in (False, True):
     out.append(time.process_time() - start)
 print(*out)
 """, "mesh": PRELUDE + """
+import numpy as np
 from blobtree.mesh.polygonizer import polygonize
 prog = resolve_scene(sys.argv[2]).program()
 size = int(sys.argv[3])
 polygonize(prog, 32)
-prog.evaluate(prog.bounds[0] + (prog.bounds[1] - prog.bounds[0]) * 0.5 + [[0, 0, 0]] * 30000)
+prog.evaluate(np.repeat([0.5 * (prog.bounds[0] + prog.bounds[1])], 30000, axis=0))
 start = time.process_time()
 mesh = polygonize(prog, size)
 out = [time.process_time() - start]

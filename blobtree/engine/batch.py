@@ -233,9 +233,10 @@ def _eval_runs(t0, t1, start, gc, gb, params, first, xyz, depth, slab, vals):
     pts = np.zeros((depth + 1, 3, SUB))
     vs = np.empty((depth, SUB))
     tmp = np.empty((depth, 7))
-    points = np.empty((SUB, 3))
-    stacks = np.empty((SUB, depth, 7))
-    frames = np.empty((SUB, depth, 30))
+    lanes = SUB if full else 0  # each point's own stacks, for eval_rows_full
+    points = np.empty((lanes, 3))
+    stacks = np.empty((lanes, depth, 7))
+    frames = np.empty((lanes, depth, 30))
     for t in range(t0, t1):
         s0, s1 = t * slab, min(m, (t + 1) * slab)
         c = np.searchsorted(first, s0, side="right") - 1

@@ -87,13 +87,12 @@ class Program:
         n = len(P)
         f = np.empty(n)
         g = np.empty((n, 3)) if mode > 0 else np.empty((0, 3))
-        c = np.empty((n, 3)) if mode > 1 else np.empty((0, 3))
+        c = np.empty((n, 3)) if mode > 0 else np.empty((0, 3))  # (mode 1: colours cost nothing)
         grid = self.grid if n >= GRID_MIN_POINTS else None
         if grid is not None and mode == 0:
             B.eval_sorted(grid, self.params, self.depth, P, f)
-        elif grid is not None:  # (mode 1 computes the colours too: it costs nothing more)
-            B.eval_sorted(grid, self.params, self.depth, P, f, g, c if mode > 1 else
-                          np.empty((n, 3)))
+        elif grid is not None:
+            B.eval_sorted(grid, self.params, self.depth, P, f, g, c)
         else:
             parallel_for(K.eval_range, n, self.code, self.params, self.boxes, P, mode,
                          self.depth, f, g, c)

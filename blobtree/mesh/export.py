@@ -42,13 +42,19 @@ def import_trimesh():
     return trimesh
 
 
+def _rgba8(colors: np.ndarray) -> np.ndarray:
+    """Colours in [0, 1] as opaque 8-bit RGBA rows."""
+    rgba = np.empty((len(colors), 4), dtype=np.uint8)
+    rgba[:, :3] = np.round(np.clip(colors, 0.0, 1.0) * 255.0)
+    rgba[:, 3] = 255
+    return rgba
+
+
 def _ply_bytes(mesh: Mesh) -> bytes:
     """Binary little-endian PLY: float positions and normals, 8-bit RGBA colours, int faces."""
     vertex = np.empty(len(mesh.vertices), dtype=[("p", "<f4", 3), ("n", "<f4", 3),
                                                  ("c", "u1", 4)])
-    vertex["p"], vertex["n"] = mesh.vertices, mesh.normals
-    vertex["c"][:, :3] = np.round(np.clip(mesh.colors, 0.0, 1.0) * 255.0)
-    vertex["c"][:, 3] = 255
+    vertex["p"], vertex["n"], vertex["c"] = mesh.vertices, mesh.normals, _rgba8(mesh.colors)
     face = np.empty(len(mesh.faces), dtype=[("k", "u1"), ("v", "<i4", 3)])
     face["k"], face["v"] = 3, mesh.faces
     header = "\n".join([
@@ -219,14 +225,11 @@ class Mesh:
         """The mesh as a ``trimesh.Trimesh`` (vertices kept as they are, not merged)."""
         trimesh = import_trimesh()
 
-        rgba = np.empty((len(self.vertices), 4), dtype=np.uint8)
-        rgba[:, :3] = np.round(np.clip(self.colors, 0.0, 1.0) * 255.0)
-        rgba[:, 3] = 255
         return trimesh.Trimesh(
             vertices=self.vertices,
             faces=self.faces,
             vertex_normals=self.normals,
-            vertex_colors=rgba,
+            vertex_colors=_rgba8(self.colors),
             process=False,
         )
 
