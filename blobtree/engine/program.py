@@ -72,7 +72,6 @@ class Program:
     lips: np.ndarray
     depth: int
     bounds: geo.Box
-    lipschitz_global: float
 
     @property
     def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -81,6 +80,15 @@ class Program:
 
     def __len__(self) -> int:
         return len(self.code)
+
+    @cached_property
+    def lipschitz_global(self) -> float:
+        """A bound on |grad f| valid everywhere: the box bound over the tree's bounds (outside
+        them the field is 0); computed on first use.  0 for an empty tree."""
+        lo, hi = (np.asarray(b, dtype=np.float64) for b in self.bounds)
+        if np.any(lo > hi):
+            return 0.0
+        return float(self.lipschitz(lo[None], hi[None])[0])
 
     def _run(self, P: np.ndarray, mode: int):
         P = np.ascontiguousarray(P, dtype=np.float64)
@@ -170,24 +178,22 @@ class _Emitter:
 
     def __init__(self) -> None:
         self.code: list[list[int]] = []
+        #: the instructions' parameters; the images come before them in ``params``
         self.params: list[float] = []
         self.boxes: list[np.ndarray] = []
         self.lips: list[float] = []
+        #: image key -> params offset, the image blocks, and how many parameters they take
         self.images: dict[str, int] = {}
+        self.image_blocks: list[np.ndarray] = []
+        self.base = 0
         #: (node id, frame, look) -> (code start, code end, params start, params end, box) of
         #: its first emission: a shared subtree is emitted once and copied after
         self.emitted: dict[tuple[int, bytes, int], tuple[int, int, int, int, geo.Box]] = {}
 
-    def data(self, values) -> int:
-        """Append raw parameter data (no instruction); return its offset."""
-        offset = len(self.params)
-        self.params.extend(float(v) for v in values)
-        return offset
-
     def add(self, op: int, params=(), box: geo.Box | None = None, count: int = 0,
             lip: float = 0.0) -> int:
         i = len(self.code)
-        self.code.append([op, len(self.params), i + 1, count])
+        self.code.append([op, self.base + len(self.params), i + 1, count])
         self.params.extend(float(v) for v in params)
         self.boxes.append(_box6(box))
         self.lips.append(lip)
@@ -199,10 +205,15 @@ class _Emitter:
         self.boxes[i] = _box6(box)
 
     def image_offset(self, node: Node) -> int:
-        """Where a texture's image block lies in params (each distinct image once)."""
-        key, data = node.image_block()
+        """Where a texture's image block lies in params (each distinct image once, all before
+        the first instruction: see :func:`compile_tree`)."""
+        key = node.image_key
         if key not in self.images:
-            self.images[key] = self.data(data)
+            assert not self.code, "images are placed before any instruction"
+            block = node.image_block()
+            self.images[key] = self.base
+            self.image_blocks.append(block)
+            self.base += len(block)
         return self.images[key]
 
     # ---------------------------------------------------------------------------------------
@@ -314,12 +325,11 @@ class _Emitter:
         code = np.array(self.code, dtype=np.int64).reshape(-1, 4)
         return Program(
             code=code,
-            params=np.array(self.params, dtype=np.float64),
+            params=np.concatenate([*self.image_blocks, np.array(self.params, dtype=np.float64)]),
             boxes=np.array(self.boxes, dtype=np.float64).reshape(-1, 6),
             lips=np.array(self.lips, dtype=np.float64),
             depth=_stack_depth(code),
             bounds=root.bounds(),
-            lipschitz_global=root.lipschitz(),
         )
 
 
@@ -387,7 +397,7 @@ def compile_tree(tree: Node) -> Program:
             "node); build it with fewer repetitions")
     em = _Emitter()
     for node in tree.unique():  # images first, so no subtree's instructions hold one
-        if hasattr(node, "image_block"):
+        if hasattr(node, "image_key"):
             em.image_offset(node)
     em.emit(_value_root(tree), geo.IDENTITY)
     return em.program(tree)

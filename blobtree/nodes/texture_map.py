@@ -5,6 +5,7 @@ helico-spiral, reached by following the field's gradient)."""
 from __future__ import annotations
 
 import math
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -102,10 +103,15 @@ class Texture(Paint):
     def sets_look(self) -> bool:
         return self.mapping == "primitive"
 
-    @property
+    @cached_property
     def digest(self) -> str:
         """Content key of the image (programs and scene files store each distinct image once)."""
         return tex.image_digest(self.image)
+
+    @property
+    def image_key(self) -> str:
+        """Key of the image block in a program: equal keys share one copy."""
+        return f"{self.digest}:{self.wrap}"
 
     def pack(self, frame, image_offset):
         ms = self.mapping
@@ -118,12 +124,12 @@ class Texture(Paint):
             gradient_weight=ms.gradient_weight, step=ms.step, max_steps=ms.max_steps,
             image=image_offset(self))
 
-    def image_block(self) -> tuple[str, np.ndarray]:
-        """(key, data) of the image in the program: width, height, wrap id, then the rgb rows in
-        [0, 1] (read by ``kmath.texel``); equal keys share one copy."""
+    def image_block(self) -> np.ndarray:
+        """The image in the program (stored once per ``image_key``): width, height, wrap id, then
+        the rgb rows in [0, 1] (read by ``kmath.texel``)."""
         h, w = self.image.shape[:2]
         head = [w, h, tex.WRAPS[self.wrap]]
-        return f"{self.digest}:{self.wrap}", np.concatenate([head, self.image.reshape(-1) / 255.0])
+        return np.concatenate([head, self.image.reshape(-1) / 255.0])
 
     def paint(self, u: np.ndarray, v: np.ndarray) -> np.ndarray:
         """Texture colours at (u, v)."""
