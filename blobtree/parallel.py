@@ -44,17 +44,17 @@ def _executor(n: int) -> ThreadPoolExecutor:
 MIN_PART = 64
 
 
-def parallel_for(kernel: Callable[..., Any], n: int, *args: Any, parts: int | None = None
-                 ) -> None:
+def parallel_for(kernel: Callable[..., Any], n: int, *args: Any, parts: int | None = None,
+                 grain: int = MIN_PART) -> None:
     """``kernel(start, stop, *args)`` for consecutive parts covering ``range(n)``, on all cores.
 
     The kernel must release the GIL to run in parallel; it writes its results into arrays among
     ``args``.  ``parts`` sets how finely the range is cut (default: a few parts per thread, none
-    smaller than :data:`MIN_PART` items).
+    smaller than ``grain`` items: 1 where an item is itself a large piece of work).
     """
     k = threads()
     if parts is None:
-        parts = min(PARTS_PER_THREAD * k, -(-n // MIN_PART))
+        parts = min(PARTS_PER_THREAD * k, -(-n // grain))
     parts = max(1, min(n, parts))
     if n <= 0:
         return

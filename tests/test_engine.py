@@ -337,3 +337,21 @@ def test_value_aware_bounds_hold_on_random_trees(tree, seed, frac):
     that cannot set the result there: the field it returns is the field at the point, and the
     bound still bounds |grad f| over the whole box."""
     check_box_bounds(tree, seed, frac, 30)
+
+
+def test_parallel_for_cuts_coarse_items_into_parts_for_every_thread(monkeypatch):
+    """A range of a few large items (a batch's slabs of 8192 points) is still cut into a part per
+    thread or more when ``grain=1``; by default parts hold at least MIN_PART items.  Either way
+    the parts cover the range once, in order."""
+    from blobtree import parallel
+
+    monkeypatch.setattr(parallel, "threads", lambda: 2)
+    for n, grain, fewest in ((25, 1, 2), (25, parallel.MIN_PART, 1), (1000, 1, 8)):
+        parts = []
+        parallel.parallel_for(lambda a, b: parts.append((a, b)), n, grain=grain)
+        parts.sort()
+        assert len(parts) >= fewest
+        assert parts[0][0] == 0 and parts[-1][1] == n
+        assert all(b0 == a1 for (_, b0), (a1, _) in zip(parts, parts[1:]))
+        if grain == parallel.MIN_PART:
+            assert len(parts) == 1

@@ -308,6 +308,6 @@ def eval_sorted(grid: Grid, params: np.ndarray, depth: int, P: np.ndarray, out_f
         k = int(first[-1])
         parallel_for(_bucket_scatter, nparts, Q, cell, offsets, xyz, pos, parts=nparts)
         parallel_for(_eval_runs, (k + SLAB - 1) // SLAB, start, gc, gb, params, first, xyz[:k],
-                     depth, SLAB, vals)
+                     depth, SLAB, vals, grain=1)
         parallel_for(_unsort, len(Q), vals, pos, out_f[a:a + BLOCK], out_g[a:a + BLOCK],
                      out_c[a:a + BLOCK])
