@@ -72,7 +72,7 @@ def info(scene: str, height: float | None, resolution: int) -> None:
     np.set_printoptions(precision=4, suppress=True)
     click.echo(f"bounds: {lo} .. {hi}")
     click.echo(f"program: {len(prog)} instructions, stack depth {prog.depth}, "
-               f"Lipschitz bound {prog.lipschitz_global:.4g}")
+               f"Lipschitz bound {tree.lipschitz():.4g}")  # (the rule, no kernel to load)
     if height is not None:
         _thin_parts(scene, tree, prog, height, resolution)
 
