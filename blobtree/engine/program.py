@@ -120,10 +120,10 @@ class Program:
             dims = np.maximum(1, np.round(ext * (cells / np.prod(ext)) ** (1 / 3))).astype(
                 np.int64)
             size = ext / dims
-            start, gc, gb, gl = S.build_grid(self.code, self.boxes, self.lips, lo, size, dims,
-                                             1e-9 * float(ext.max()))
+            start, gc, gb = S.build_grid(self.code, self.boxes, self.lips, lo, size, dims,
+                                         1e-9 * float(ext.max()))
             if len(gc) <= GRID_MAX_INSTRUCTIONS or cells <= GRID_MIN_CELLS:
-                return Grid(start, gc, gb, gl, lo.copy(), size, dims)
+                return Grid(start, gc, gb, lo.copy(), size, dims)
             cells //= 4
 
     def field(self, P: np.ndarray) -> np.ndarray:

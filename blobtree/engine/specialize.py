@@ -181,14 +181,13 @@ class Grid:
     start: np.ndarray
     code: np.ndarray
     boxes: np.ndarray
-    lips: np.ndarray
     lo: np.ndarray
     size: np.ndarray
     dims: np.ndarray
 
     @property
     def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(start, code, boxes) for ``specialize.eval_point_grid``."""
+        """(start, code, boxes) for ``batch.eval_sorted``."""
         return self.start, self.code, self.boxes
 
     @property
@@ -208,7 +207,7 @@ def _cell_box(c, lo, size, dims, pad, clo, chi):
 
 
 @kernel(nrt=True, nogil=True)
-def _grid_part(start, stop, code, boxes, lips, lo, size, dims, pad, lengths, gc, gb, gl, fill):
+def _grid_part(start, stop, code, boxes, lips, lo, size, dims, pad, lengths, gc, gb, fill):
     """Specialise to cells start..stop - 1: record the lengths (``fill`` False), or copy the
     programs to rows lengths[c]:lengths[c] + m (``fill`` True; lengths then holds the starts)."""
     n = code.shape[0]
@@ -230,23 +229,22 @@ def _grid_part(start, stop, code, boxes, lips, lo, size, dims, pad, lengths, gc,
                 gc[a + r, q] = oc[r, q]
             for q in range(6):
                 gb[a + r, q] = ob[r, q]
-            gl[a + r] = ol[r]
 
 
 def build_grid(code, boxes, lips, lo, size, dims, pad):
-    """Specialise the program to every cell of a grid: (start (ncell + 1), code, boxes, lips),
-    cell c's program being rows start[c]:start[c + 1] (skip targets relative to its start)."""
+    """Specialise the program to every cell of a grid: (start (ncell + 1), code, boxes), cell
+    c's program being rows start[c]:start[c + 1] (skip targets relative to its start).  (Batch
+    evaluation reads no Lipschitz bounds, so the cells keep none.)"""
     lengths = np.zeros(int(np.prod(dims)) + 1, dtype=np.int64)
-    gc, gb, gl = np.empty((0, 4), dtype=np.int64), np.empty((0, 6)), np.empty(0)
+    gc, gb = np.empty((0, 4), dtype=np.int64), np.empty((0, 6))
     ncell = len(lengths) - 1
-    parallel_for(_grid_part, ncell, code, boxes, lips, lo, size, dims, pad, lengths, gc, gb, gl,
+    parallel_for(_grid_part, ncell, code, boxes, lips, lo, size, dims, pad, lengths, gc, gb,
                  False)
     start = np.cumsum(lengths)
     total = int(start[-1])
-    gc, gb, gl = np.empty((total, 4), dtype=np.int64), np.empty((total, 6)), np.empty(total)
-    parallel_for(_grid_part, ncell, code, boxes, lips, lo, size, dims, pad, start, gc, gb, gl,
-                 True)
-    return start, gc, gb, gl
+    gc, gb = np.empty((total, 4), dtype=np.int64), np.empty((total, 6))
+    parallel_for(_grid_part, ncell, code, boxes, lips, lo, size, dims, pad, start, gc, gb, True)
+    return start, gc, gb
 
 
 @kernel
