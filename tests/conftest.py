@@ -1,9 +1,10 @@
 """Shared test set-up: hypothesis profiles and the markers that tier the suite.
 
-Profiles (``HYPOTHESIS_PROFILE=<name> python -m pytest``): ``ci`` (the default, what CI runs; the same examples every run),
-``quick`` (a few examples per property, for a fast local loop) and ``thorough`` (many, before a
-release or after touching the engine).  A test that needs a different number of examples than
-the profile gives scales it with :func:`examples`.
+Profiles (``HYPOTHESIS_PROFILE=<name> python -m pytest``): ``ci`` (the default, what CI runs;
+the same examples every run), ``quick`` (a few examples per property, for a fast local loop) and
+``thorough`` (many, new ones each run, before a release or after touching the engine).  A
+test that needs a different number of examples than the profile gives scales it with
+:func:`examples`.
 
 Markers: ``slow`` (seconds each: the full shell, large meshes) and ``cluster`` (starts Dask
 workers).  CI runs everything; ``-m "not slow and not cluster"`` is the quick local loop.

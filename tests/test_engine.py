@@ -347,11 +347,11 @@ def test_parallel_for_cuts_coarse_items_into_parts_for_every_thread(monkeypatch)
 
     monkeypatch.setattr(parallel, "threads", lambda: 2)
     for n, grain, fewest in ((25, 1, 2), (25, parallel.MIN_PART, 1), (1000, 1, 8)):
-        parts = []
-        parallel.parallel_for(lambda a, b: parts.append((a, b)), n, grain=grain)
+        parts: list[tuple[int, int]] = []
+        parallel.parallel_for(lambda a, b, out=parts: out.append((a, b)), n, grain=grain)
         parts.sort()
         assert len(parts) >= fewest
         assert parts[0][0] == 0 and parts[-1][1] == n
-        assert all(b0 == a1 for (_, b0), (a1, _) in zip(parts, parts[1:]))
+        assert all(b0 == a1 for (_, b0), (a1, _) in zip(parts[:-1], parts[1:], strict=True))
         if grain == parallel.MIN_PART:
             assert len(parts) == 1
