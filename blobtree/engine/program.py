@@ -120,9 +120,11 @@ class Program:
             dims = np.maximum(1, np.round(ext * (cells / np.prod(ext)) ** (1 / 3))).astype(
                 np.int64)
             size = ext / dims
-            start, gc, gb = S.build_grid(self.code, self.boxes, self.lips, lo, size, dims,
-                                         1e-9 * float(ext.max()))
-            if len(gc) <= GRID_MAX_INSTRUCTIONS or cells <= GRID_MIN_CELLS:
+            pad = 1e-9 * float(ext.max())
+            start = S.grid_starts(self.code, self.boxes, self.lips, lo, size, dims, pad)
+            if start[-1] <= GRID_MAX_INSTRUCTIONS or cells <= GRID_MIN_CELLS:
+                gc, gb = S.build_grid(self.code, self.boxes, self.lips, lo, size, dims, pad,
+                                      start)
                 return Grid(start, gc, gb, lo.copy(), size, dims)
             cells //= 4
 

@@ -231,20 +231,25 @@ def _grid_part(start, stop, code, boxes, lips, lo, size, dims, pad, lengths, gc,
                 gb[a + r, q] = ob[r, q]
 
 
-def build_grid(code, boxes, lips, lo, size, dims, pad):
-    """Specialise the program to every cell of a grid: (start (ncell + 1), code, boxes), cell
-    c's program being rows start[c]:start[c + 1] (skip targets relative to its start).  (Batch
-    evaluation reads no Lipschitz bounds, so the cells keep none.)"""
+def grid_starts(code, boxes, lips, lo, size, dims, pad) -> np.ndarray:
+    """Where each cell's specialised program would start in the grid's rows (ncell + 1; the
+    last entry is the grid's length): the counting pass of :func:`build_grid`, cheap enough to
+    try grids of several sizes."""
     lengths = np.zeros(int(np.prod(dims)) + 1, dtype=np.int64)
-    gc, gb = np.empty((0, 4), dtype=np.int64), np.empty((0, 6))
-    ncell = len(lengths) - 1
-    parallel_for(_grid_part, ncell, code, boxes, lips, lo, size, dims, pad, lengths, gc, gb,
-                 False)
-    start = np.cumsum(lengths)
+    parallel_for(_grid_part, len(lengths) - 1, code, boxes, lips, lo, size, dims, pad, lengths,
+                 np.empty((0, 4), dtype=np.int64), np.empty((0, 6)), False)
+    return np.cumsum(lengths)
+
+
+def build_grid(code, boxes, lips, lo, size, dims, pad, start):
+    """Specialise the program to every cell of a grid: (code, boxes), cell c's program being
+    rows start[c]:start[c + 1] (``start`` from :func:`grid_starts`; skip targets relative to
+    the cell's start).  (Batch evaluation reads no Lipschitz bounds, so the cells keep none.)"""
     total = int(start[-1])
     gc, gb = np.empty((total, 4), dtype=np.int64), np.empty((total, 6))
-    parallel_for(_grid_part, ncell, code, boxes, lips, lo, size, dims, pad, start, gc, gb, True)
-    return start, gc, gb
+    parallel_for(_grid_part, len(start) - 1, code, boxes, lips, lo, size, dims, pad, start, gc,
+                 gb, True)
+    return gc, gb
 
 
 @kernel
