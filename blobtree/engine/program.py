@@ -287,13 +287,8 @@ class _Emitter:
             boxes = [self.emit(c, M, look) for c in children]
             self.add(op, extra, count=len(children))
             return geo.box_union(boxes)
-        centres = np.array([0.5 * (b[0] + b[1]) for b in (c.box(M) for c in children)])
-        centres = np.nan_to_num(centres, nan=0.0, posinf=0.0, neginf=0.0)
-        axis = int(np.argmax(centres.max(axis=0) - centres.min(axis=0)))
-        order = np.argsort(centres[:, axis], kind="stable")
-        half = len(children) // 2
         boxes = []
-        for part in (order[:half], order[half:]):
+        for part in _split([c.box(M) for c in children]):
             head = self.add(OP_BOX)
             box = self.group(op, node, [children[i] for i in sorted(part)], M, look)
             self.close(head, box)
@@ -374,6 +369,34 @@ def expanded_size(tree: Node) -> int:
             own += 2 * max(len(kids) // GROUP, 1)
         size[id(node)] = own + inner
     return size[id(tree)]
+
+
+def _split(boxes: list[geo.Box]) -> tuple[np.ndarray, np.ndarray]:
+    """Two groups of the boxes (index arrays) for the box hierarchy of an associative operator:
+    of the cuts of the boxes sorted by centre along each axis, the one that leaves the fewest
+    boxes expected to hold a point (the volume heuristic of bounding-volume hierarchies: a
+    group's box holds a point in proportion to its volume, and then all its boxes are tested),
+    the boxes grown by a little so that flat ones still count.  Empty boxes count as points at
+    the origin."""
+    lo = np.nan_to_num(np.array([b[0] for b in boxes]), nan=0.0, posinf=0.0, neginf=0.0)
+    hi = np.nan_to_num(np.array([b[1] for b in boxes]), nan=0.0, posinf=0.0, neginf=0.0)
+    hi = np.maximum(hi, lo)
+    n = len(boxes)
+    grow = 0.01 * float(np.max(hi.max(axis=0) - lo.min(axis=0)))
+    best = (np.inf, None)
+    for axis in range(3):
+        order = np.argsort(lo[:, axis] + hi[:, axis], kind="stable")
+        a, b = lo[order], hi[order]
+        # volumes of the union of the first k boxes (k = 1 .. n - 1) and of the last n - k
+        head = np.prod(np.maximum.accumulate(b)[:-1] - np.minimum.accumulate(a)[:-1] + grow, 1)
+        tail = np.prod(np.maximum.accumulate(b[::-1])[:-1] - np.minimum.accumulate(a[::-1])[:-1]
+                       + grow, 1)[::-1]
+        k = np.arange(1, n)
+        cost = head * k + tail * (n - k)
+        i = int(np.argmin(cost))
+        if cost[i] < best[0]:
+            best = (cost[i], (order[:i + 1], order[i + 1:]))
+    return best[1]
 
 
 def program_of(tree: Node | Program, name: str = "tree") -> Program:
