@@ -8,9 +8,13 @@ primitive and every BOX instruction first tests its box; a miss pushes 0 and jum
 subtree (``code[i, 2]``), so a subtree whose box misses the point costs one test.  Each node
 type's maths comes from its own kernels through ``dispatch``.
 
-``eval_point``, ``lipschitz_box`` and ``lipschitz_segment`` are compiled once and called (not
-inlined by numba) from the mesher, the ray tracer and the batches: that keeps the first run's
-compilation short.  They are compiled without reference counting (docs/engine.md).
+``eval_point`` and the two bound passes (``_lipschitz``, ``_bounded``, through ``_bound_at``) are
+compiled once and called (not inlined by numba) from the mesher, the ray tracer and the batches:
+that keeps the first run's compilation short.  The thin entry points around them
+(``lipschitz_box``, ``bound_box_at``, ``lipschitz_segment``) are inlined into their callers
+instead: numba links and optimises again the whole code a compiled function calls, so each
+entry point compiled on its own took two to three seconds of a first run for a few lines.  All
+are compiled without reference counting (docs/engine.md).
 """
 
 from __future__ import annotations
@@ -411,7 +415,7 @@ def _bounded(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox, o
     return vs[0, 0], vs[0, BOUND], below, above
 
 
-@kernel
+@kernel(inline="always")
 def lipschitz_box(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, vs):
     """A bound on |grad f| over the box [lo, hi] (world coordinates): the tree's Lipschitz rules
     (sum at blends, max at CSG) over only the primitives whose boxes meet it, each with its
@@ -445,7 +449,7 @@ def _bound_at(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, x, y
     return f, bound, below, above
 
 
-@kernel
+@kernel(inline="always")
 def bound_box_at(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, x, y, z, values, vs,
                  ps):
     """(The field at (x, y, z), a point of the box [lo, hi]; a bound on |grad f| over the box;
@@ -457,7 +461,7 @@ def bound_box_at(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, x, y, 
                      0.0, 0.0, 0.0, 0.0, values, vs, ps)
 
 
-@kernel
+@kernel(inline="always")
 def lipschitz_segment(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, length, values, vs,
                       ps):
     """(The field at o; a bound on |df/dt| along the segment o + t d, 0 <= t <= length, d a unit

@@ -97,7 +97,7 @@ AMBIENT, SPECULAR, SHININESS, OCCLUSION, OCCLUSION_RADIUS, LIGHT_TAN, SKY = rang
 OCCLUSION_SAMPLES = 4
 
 
-@kernel
+@kernel(inline="always")
 def _field_at(code, params, boxes, local, llo, lhi, x, y, z, vstack, pstack):
     """The field at (x, y, z): on the local program inside its box, on the full one outside."""
     if llo[0] <= x <= lhi[0] and llo[1] <= y <= lhi[1] and llo[2] <= z <= lhi[2]:
@@ -105,7 +105,7 @@ def _field_at(code, params, boxes, local, llo, lhi, x, y, z, vstack, pstack):
     return interp.eval_point(code, params, boxes, x, y, z, 0, vstack, pstack)
 
 
-@kernel
+@kernel(inline="always")
 def occlusion(code, params, boxes, local, llo, lhi, px, py, pz, nx, ny, nz, slope, radius,
               vstack, pstack):
     """Ambient occlusion in [0, 1] at surface point p with outward normal n, from the field
@@ -124,7 +124,7 @@ def occlusion(code, params, boxes, local, llo, lhi, px, py, pz, nx, ny, nz, slop
     return occ / total
 
 
-@kernel
+@kernel(inline="always")
 def penumbra(code, params, boxes, x, y, z, t, light_tan, vstack, pstack):
     """How much of an area light of angular radius atan(light_tan) a shadow ray that missed
     still sees, from the point (x, y, z) at distance t where it passed nearest another surface:
@@ -138,7 +138,7 @@ def penumbra(code, params, boxes, x, y, z, t, light_tan, vstack, pstack):
     return _smoothstep((0.5 - vstack[0, 0]) / (g * t * light_tan))
 
 
-@kernel
+@kernel(inline="always")
 def _smoothstep(x):
     """0 below 0, 1 above 1, the cubic 3x^2 - 2x^3 between."""
     x = min(max(x, 0.0), 1.0)

@@ -210,7 +210,7 @@ def _ray(cam, width, height, x, y):
     return dx / n, dy / n, dz / n
 
 
-@kernel
+@kernel(inline="always")
 def _block_start(code, params, boxes, lips, cam, width, height, bx0, by0, bx1, by1, t, t_far,
                  vstack, pstack):
     """A depth before which no ray through pixels [bx0, bx1) x [by0, by1) meets the surface

@@ -65,7 +65,7 @@ def clip_box(ox, oy, oz, dx, dy, dz, lo, hi, tmin, tmax):
     return t0, t1
 
 
-@kernel
+@kernel(inline="always")
 def _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, ta, fa, tb, fb, tol, vstack, pstack):
     """Root of f - ISO in [ta, tb] with fa < 0 <= fb (Illinois regula falsi), stopping once
     the secant slope puts the root within tol of the estimate."""
@@ -159,7 +159,7 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
     return -1.0, rise, t_peak
 
 
-@kernel
+@kernel(inline="always")
 def trace_from_local(code, params, boxes, lips, local, ox, oy, oz, dx, dy, dz, t0, t_split, t1,
                      eps_abs, eps_rel, delta_local, frac, pad, vstack, pstack):
     """:func:`trace` over [t0, t1] on ``local = (code, boxes, lips)``, the program specialised
