@@ -8,13 +8,13 @@ primitive and every BOX instruction first tests its box; a miss pushes 0 and jum
 subtree (``code[i, 2]``), so a subtree whose box misses the point costs one test.  Each node
 type's maths comes from its own kernels through ``dispatch``.
 
-``eval_point`` and the two bound passes (``_lipschitz``, ``_bounded``, through ``_bound_at``) are
-compiled once and called (not inlined by numba) from the mesher, the ray tracer and the batches:
-that keeps the first run's compilation short.  The thin entry points around them
-(``lipschitz_box``, ``bound_box_at``, ``lipschitz_segment``) are inlined into their callers
-instead: numba links and optimises again the whole code a compiled function calls, so each
-entry point compiled on its own took two to three seconds of a first run for a few lines.  All
-are compiled without reference counting (docs/engine.md).
+``eval_point`` and the two bound passes (``_lipschitz``, ``_bounded``) are compiled once and
+called (not inlined by numba) from the mesher, the ray tracer and the batches: that keeps the
+first run's compilation short.  The thin entry points around them (``lipschitz_box``,
+``bound_box_at``, ``lipschitz_segment``, ``_bound_at``) are inlined into their callers instead:
+numba links and optimises again the whole code a compiled function calls, so each entry point
+compiled on its own took two to three seconds of a first run for a few lines.  All are compiled
+without reference counting (docs/engine.md).
 """
 
 from __future__ import annotations
@@ -434,7 +434,7 @@ def bounds_use_values(code):
     return n > 0 and VALUE_BOUND[code[n - 1, 0]]
 
 
-@kernel
+@kernel(inline="always")
 def _bound_at(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, x, y, z, dx, dy,
               dz, length, values, vs, ps):
     """:func:`_bounded` with ``values``; else the field by ``eval_point``, the plain bound and
