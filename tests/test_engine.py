@@ -355,3 +355,24 @@ def test_parallel_for_cuts_coarse_items_into_parts_for_every_thread(monkeypatch)
         assert all(b0 == a1 for (_, b0), (a1, _) in zip(parts[:-1], parts[1:], strict=True))
         if grain == parallel.MIN_PART:
             assert len(parts) == 1
+
+
+def test_box_hierarchy_cuts_where_fewest_boxes_hold_a_point():
+    """An associative operator's children are grouped by the volume heuristic: a cluster of 24
+    children and one of 8 far from it, given interleaved, are cut apart at the top (the median
+    of the centres, where the hierarchy was cut before, puts 8 of the 24 with the far ones), and
+    children whose boxes are all alike still give a balanced tree (a stack only logarithmically
+    deep) and the exact sum."""
+    near = [bt.Point(radius=0.5, center=(0.01 * i, 0.0, 0.0)) for i in range(24)]
+    far = [bt.Point(radius=0.5, center=(10.0 + 0.01 * i, 0.0, 0.0)) for i in range(8)]
+    tree = bt.blend(*[c for pair in zip(near[:8], far, strict=True) for c in pair], *near[8:])
+    prog = tree.program()
+    first, second = 1, int(prog.code[1, 2])  # the root's two groups: BOX heads
+    extents = sorted(float(prog.boxes[i, 3] - prog.boxes[i, 0]) for i in (first, second))
+    assert extents[1] < 2.0, extents  # each group holds one cluster only
+    same = bt.blend(*[bt.Point(radius=1.0) for _ in range(64)])
+    p = same.program()
+    assert p.depth <= 12, p.depth
+    np.testing.assert_allclose(p.field(np.array([[0.1, 0.2, 0.3]])),
+                               64 * bt.Point(radius=1.0).field(np.array([[0.1, 0.2, 0.3]])),
+                               rtol=1e-12)

@@ -376,8 +376,8 @@ def _split(boxes: list[geo.Box]) -> tuple[np.ndarray, np.ndarray]:
     of the cuts of the boxes sorted by centre along each axis, the one that leaves the fewest
     boxes expected to hold a point (the volume heuristic of bounding-volume hierarchies: a
     group's box holds a point in proportion to its volume, and then all its boxes are tested),
-    the boxes grown by a little so that flat ones still count.  Empty boxes count as points at
-    the origin."""
+    the boxes grown by a little so that flat ones still count; of equally good cuts, the most
+    even (boxes all alike give a balanced tree).  Empty boxes count as points at the origin."""
     lo = np.nan_to_num(np.array([b[0] for b in boxes]), nan=0.0, posinf=0.0, neginf=0.0)
     hi = np.nan_to_num(np.array([b[1] for b in boxes]), nan=0.0, posinf=0.0, neginf=0.0)
     hi = np.maximum(hi, lo)
@@ -393,7 +393,8 @@ def _split(boxes: list[geo.Box]) -> tuple[np.ndarray, np.ndarray]:
                        + grow, 1)[::-1]
         k = np.arange(1, n)
         cost = head * k + tail * (n - k)
-        i = int(np.argmin(cost))
+        near = np.flatnonzero(cost <= cost.min() * (1.0 + 1e-9))  # ties: the most even cut
+        i = int(near[np.argmin(np.abs(2 * k[near] - n))])
         if cost[i] < best[0]:
             best = (cost[i], (order[:i + 1], order[i + 1:]))
     return best[1]
