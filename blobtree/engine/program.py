@@ -378,8 +378,8 @@ def _split(boxes: list[geo.Box]) -> tuple[np.ndarray, np.ndarray]:
     group's box holds a point in proportion to its volume, and then all its boxes are tested),
     the boxes grown by a little so that flat ones still count; of equally good cuts, the most
     even (boxes all alike give a balanced tree).  Empty boxes count as points at the origin."""
-    lo = np.nan_to_num(np.array([b[0] for b in boxes]), nan=0.0, posinf=0.0, neginf=0.0)
-    hi = np.nan_to_num(np.array([b[1] for b in boxes]), nan=0.0, posinf=0.0, neginf=0.0)
+    lo, hi = np.nan_to_num(np.array(boxes, dtype=np.float64).transpose(1, 0, 2), nan=0.0,
+                           posinf=0.0, neginf=0.0)
     hi = np.maximum(hi, lo)
     n = len(boxes)
     grow = 0.01 * float(np.max(hi.max(axis=0) - lo.min(axis=0)))
