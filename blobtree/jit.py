@@ -27,8 +27,9 @@ from numba.core import event, types
 from numba.core.caching import FunctionCache
 
 _PACKAGE = Path(__file__).resolve().parent
-#: Parts of the package whose code numba never compiles (they cannot change a kernel).
-_NOT_COMPILED = {"cli", "models", "textures.py"}
+#: Parts of the package no kernel depends on: code numba never compiles, and the mesher, whose
+#: kernels are numba's own (cached per source file, as they call no kernel of the engine).
+_NOT_COMPILED = {"cli", "mesh", "models", "textures.py"}
 
 
 @functools.cache

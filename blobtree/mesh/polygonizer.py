@@ -28,6 +28,7 @@ import numpy as np
 from ..checks import Integer, Vec3, positive, short_repr
 from ..engine.program import program_of
 from ..nodes.base import ISO
+from ..parallel import parallel_for
 from ._kernels import block_triangles
 from ._lattice import (
     box_geometry,
@@ -38,6 +39,7 @@ from ._lattice import (
     split,
     spread,
 )
+from ._place import bracket_step, final_roots, newton_step, secant_points
 from .export import Mesh
 
 #: what the arguments may be
@@ -46,8 +48,9 @@ RESOLUTION, CELL_SIZE, VEC3 = Integer(2, 2**20), positive(), Vec3()
 BLOCK = 16
 #: cells per side of the smallest boxes culled
 FINE = 2
-#: regula falsi steps per vertex (a Newton step on the shading evaluation follows)
-REFINE_STEPS = 2
+#: regula falsi steps per vertex at most (a Newton step on the shading evaluation follows); a
+#: vertex stops early once the secant puts its root within REFINE_TOL of the edge's length
+REFINE_STEPS, REFINE_TOL = 2, 1e-2
 #: peak memory per output triangle and per finest culled box (fitted to the whorl and the Murex
 #: at 512 and 1024 cells: 156 and 83 bytes)
 BYTES_PER_TRIANGLE, BYTES_PER_BOX = 160, 90
@@ -118,22 +121,17 @@ def _place(prog, grid: _Grid, keys, f0, f1, centres):
     """Vertices on the surface (edge vertices, then loop-centre vertices), with the field's
     gradient and colour there."""
     p0, axis = grid.edge_points(keys)
-    rows = np.arange(len(keys))
-    t, t_lo, t_hi = _refine(prog, grid, p0, axis, f0, f1)
-    verts = p0.copy()
-    verts[rows, axis] += t * grid.h
+    t, t_lo, t_hi, verts = _refine(prog, grid, p0, axis, f0, f1)
     if grid.clip:  # the cap lies on the bounds; bracketing converges slowly onto the jump
         np.clip(verts, grid.lo, grid.hi, out=verts)
+    n = len(verts)
     verts = np.concatenate([verts, _project(prog, grid, grid.origin + centres * grid.h)])
     f, grad, colors = prog.evaluate(verts)
     # a last Newton step along each edge from the values just taken, kept inside the bracket
     # (and off the cap of a cut solid, where the real field is not the one meshed)
-    slope = grad[rows, axis] * grid.h
-    t_new = t - np.divide(f[rows] - ISO, slope, out=np.zeros_like(t), where=slope != 0)
-    ok = (t_new > t_lo) & (t_new < t_hi)
-    if grid.clip:
-        ok &= np.all((p0 >= grid.lo) & (p0 + grid.h <= grid.hi), axis=1)
-    verts[rows[ok], axis[ok]] += (t_new[ok] - t[ok]) * grid.h
+    movable = (np.all((p0 >= grid.lo) & (p0 + grid.h <= grid.hi), axis=1) if grid.clip
+               else np.ones(n, dtype=bool))
+    parallel_for(newton_step, n, f, grad, ISO, axis, grid.h, t, t_lo, t_hi, movable, verts)
     return verts, grad, colors
 
 
@@ -337,30 +335,29 @@ def _block_code(origins: np.ndarray, blocks: np.ndarray) -> np.ndarray:
     return np.ravel_multi_index(tuple((origins // BLOCK).T), tuple(blocks))
 
 
-def _refine(prog, grid: _Grid, p0, axis, f0, f1) -> np.ndarray:
-    """Parameter t in (0, 1) of the iso crossing on each lattice edge, and the final bracket
-    (t_lo, t_hi) (kept 1e-4 from the ends): regula falsi with the Anderson-Bjorck weighting
-    (Anderson & Bjorck, BIT 13, 1973)."""
-    rows = np.arange(len(p0))
-    ta, tb = np.zeros(len(p0)), np.ones(len(p0))
+def _refine(prog, grid: _Grid, p0, axis, f0, f1):
+    """Regula falsi along each vertex's lattice edge (:mod:`._place`): up to ``REFINE_STEPS``
+    steps, a vertex leaving once its secant puts the root within ``REFINE_TOL`` of the edge.
+    Returns the root's parameter t in (0, 1), the final bracket (t_lo, t_hi) (kept 1e-4 from
+    the ends) and the points (V, 3) at t."""
+    n = len(p0)
+    ta, tb = np.zeros(n), np.ones(n)
     ga, gb = f0 - ISO, f1 - ISO
-    recent_a = recent_b = np.zeros(len(p0), dtype=bool)  # which end the last step replaced
+    last = np.zeros(n, dtype=np.int8)
+    t, pts = np.empty(n), np.empty((n, 3))
+    rows = np.arange(n)
     for _ in range(REFINE_STEPS):
-        t = _secant(ta, tb, ga, gb)
-        p = p0.copy()
-        p[rows, axis] += t * grid.h
-        g = grid.field(prog, p) - ISO
-        new_a = (ga >= 0) == (g >= 0)  # t lies on a's side: it replaces a, else b
-        # an end kept twice in a row is weighted by 1 - g / g(end replaced), or 1/2
-        g_old = np.where(new_a, ga, gb)
-        m = 1.0 - np.divide(g, g_old, out=np.zeros_like(g), where=g_old != 0)
-        m = np.where(m > 0, m, 0.5)
-        ga = np.where(new_a, g, np.where(recent_b, ga * m, ga))
-        gb = np.where(new_a, np.where(recent_a, gb * m, gb), g)
-        ta, tb = np.where(new_a, t, ta), np.where(new_a, tb, t)
-        recent_a, recent_b = new_a, ~new_a
-    t_lo, t_hi = np.maximum(np.minimum(ta, tb), 1e-4), np.minimum(np.maximum(ta, tb), 1.0 - 1e-4)
-    return np.clip(_secant(ta, tb, ga, gb), t_lo, t_hi), t_lo, t_hi
+        if len(rows) == 0:
+            break
+        m = len(rows)
+        parallel_for(secant_points, m, rows, p0, axis, grid.h, ta, tb, ga, gb, t, pts)
+        g = grid.field(prog, pts[:m]) - ISO
+        done = np.empty(m, dtype=bool)
+        parallel_for(bracket_step, m, rows, g, t, ta, tb, ga, gb, last, REFINE_TOL, done)
+        rows = rows[~done]
+    t_lo, t_hi = np.empty(n), np.empty(n)
+    parallel_for(final_roots, n, ta, tb, ga, gb, t, t_lo, t_hi, p0, axis, grid.h, pts)
+    return t, t_lo, t_hi, pts
 
 
 def _project(prog, grid: _Grid, p: np.ndarray) -> np.ndarray:
@@ -374,13 +371,6 @@ def _project(prog, grid: _Grid, p: np.ndarray) -> np.ndarray:
         norm = np.linalg.norm(step, axis=1)
         p = p + step * np.minimum(1.0, 0.5 * grid.h / np.maximum(norm, 1e-300))[:, None]
     return p
-
-
-def _secant(ta, tb, ga, gb) -> np.ndarray:
-    """Root of the line through (ta, ga), (tb, gb); ga, gb of opposite signs (ga may be 0)."""
-    den = ga - gb
-    t = ta + (tb - ta) * np.divide(ga, den, out=np.full_like(ga, 0.5), where=den != 0)
-    return np.clip(t, np.minimum(ta, tb), np.maximum(ta, tb))
 
 
 def _normals(grad: np.ndarray, verts: np.ndarray, tris: np.ndarray) -> np.ndarray:

@@ -1,0 +1,84 @@
+"""Placing vertices on the surface along their lattice edges: numba kernels over vertices.
+
+Each vertex lies on a lattice edge p0 + t h e_axis, 0 <= t <= 1, with the field minus the
+iso-value changing sign between its ends.  Regula falsi with the Anderson-Bjorck weighting
+(Anderson & Bjorck, BIT 13, 1973) shrinks the bracket [ta, tb] around the root, keeping the
+root inside it; ``polygonizer._refine`` runs the steps, the field batched over the vertices
+still refining.  Every kernel takes its part ``(start, stop)`` of the rows for
+:func:`parallel.parallel_for`.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+
+
+@nb.njit(cache=True, inline="always")
+def _secant(ta, tb, ga, gb):
+    """Root of the line through (ta, ga), (tb, gb) (ga, gb of opposite signs, ga may be 0),
+    kept inside [ta, tb]."""
+    den = ga - gb
+    t = ta + (tb - ta) * (ga / den if den != 0.0 else 0.5)
+    return min(max(t, min(ta, tb)), max(ta, tb))
+
+
+@nb.njit(cache=True, nogil=True)
+def secant_points(start, stop, rows, p0, axis, h, ta, tb, ga, gb, t, out):
+    """For vertices ``rows[start:stop]``: the secant root of each bracket into ``t`` and its
+    point on the edge into ``out[start:stop]``."""
+    for q in range(start, stop):
+        r = rows[q]
+        t[r] = _secant(ta[r], tb[r], ga[r], gb[r])
+        for c in range(3):
+            out[q, c] = p0[r, c]
+        out[q, axis[r]] += t[r] * h
+
+
+@nb.njit(cache=True, nogil=True)
+def bracket_step(start, stop, rows, g, t, ta, tb, ga, gb, last, tol, done):
+    """One regula-falsi step for vertices ``rows[start:stop]`` given g = f - iso at their
+    secant roots ``t``: the root replaces the bracket's end on its side; an end kept twice in
+    a row has its value weighted by 1 - g / g(end replaced), or by 1/2 (Anderson-Bjorck).
+    ``last[r]``: the end replaced last (1: a, 2: b, 0: none yet).  ``done[q]``: the secant
+    through the bracket (before the step) put the root within ``tol`` of the edge's length of
+    t (|g| / slope), so a further step would gain little."""
+    for q in range(start, stop):
+        r = rows[q]
+        gq = g[q]
+        done[q] = abs(gq) * abs(tb[r] - ta[r]) <= tol * abs(gb[r] - ga[r])
+        if (ga[r] >= 0.0) == (gq >= 0.0):  # t lies on a's side: it replaces a
+            if last[r] == 1:
+                m = 1.0 - gq / ga[r] if ga[r] != 0.0 else 1.0
+                gb[r] *= m if m > 0.0 else 0.5
+            ta[r], ga[r], last[r] = t[r], gq, 1
+        else:
+            if last[r] == 2:
+                m = 1.0 - gq / gb[r] if gb[r] != 0.0 else 1.0
+                ga[r] *= m if m > 0.0 else 0.5
+            tb[r], gb[r], last[r] = t[r], gq, 2
+
+
+@nb.njit(cache=True, nogil=True)
+def final_roots(start, stop, ta, tb, ga, gb, t, t_lo, t_hi, p0, axis, h, out):
+    """The bracket (kept ``1e-4`` from the edge's ends) into t_lo, t_hi, the secant root inside
+    it into t, and its point into out."""
+    for r in range(start, stop):
+        t_lo[r] = max(min(ta[r], tb[r]), 1e-4)
+        t_hi[r] = min(max(ta[r], tb[r]), 1.0 - 1e-4)
+        t[r] = min(max(_secant(ta[r], tb[r], ga[r], gb[r]), t_lo[r]), t_hi[r])
+        for c in range(3):
+            out[r, c] = p0[r, c]
+        out[r, axis[r]] += t[r] * h
+
+
+@nb.njit(cache=True, nogil=True)
+def newton_step(start, stop, f, grad, iso, axis, h, t, t_lo, t_hi, movable, verts):
+    """A last Newton step along each edge from the field and gradient at its vertex, taken only
+    where it stays inside the bracket (t_lo, t_hi) and ``movable``."""
+    for r in range(start, stop):
+        slope = grad[r, axis[r]] * h
+        if slope == 0.0 or not movable[r]:
+            continue
+        t_new = t[r] - (f[r] - iso) / slope
+        if t_lo[r] < t_new < t_hi[r]:
+            verts[r, axis[r]] += (t_new - t[r]) * h
