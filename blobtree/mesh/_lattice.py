@@ -10,6 +10,8 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from ..parallel import parallel_for
+
 
 @nb.njit(cache=True)
 def new_store(nblocks, block, fine, kept_slot, kept_loc, kept_value):
@@ -78,12 +80,18 @@ def keep_boxes(lip, fc, below, above, half, lo, hi, bounds_lo, bounds_hi, clip, 
     return keep
 
 
-@nb.njit(cache=True)
 def seeds(values, kept_slot, kept_loc, fine, iso):
     """Kept boxes whose corners and centre are not all on one side of the iso-value."""
     out = np.zeros(kept_slot.shape[0], dtype=np.bool_)
+    parallel_for(_seeds, len(out), values, kept_slot, kept_loc, fine, iso, out)
+    return out
+
+
+@nb.njit(cache=True, nogil=True)
+def _seeds(start, stop, values, kept_slot, kept_loc, fine, iso, out):
+    """:func:`seeds` for kept boxes start..stop - 1."""
     half = fine // 2
-    for q in range(kept_slot.shape[0]):
+    for q in range(start, stop):
         b = kept_slot[q]
         i, j, k = kept_loc[q, 0], kept_loc[q, 1], kept_loc[q, 2]
         inside = values[b, i + half, j + half, k + half] >= iso
@@ -92,7 +100,6 @@ def seeds(values, kept_slot, kept_loc, fine, iso):
             if (v >= iso) != inside:
                 out[q] = True
                 break
-    return out
 
 
 @nb.njit(cache=True)
@@ -124,20 +131,32 @@ def _face_value(values, b, i, j, k, axis, w, u, v):
     return values[b, i + u, j + v, k + w]
 
 
-@nb.njit(cache=True)
 def spread(
     values, frontier, active, kept_slot, kept_loc, boxmap, block_of, block_origins, block, fine, iso
 ):
-    """Kept boxes not yet active across a crossed face of a frontier box; marks them active."""
-    out = np.empty(frontier.shape[0] * 6, dtype=np.int64)
-    n = 0
+    """Kept boxes not yet active across a crossed face of a frontier box; marks them active
+    (the faces are read in parallel, the boxes marked in order)."""
+    across = np.empty((frontier.shape[0], 6), dtype=np.int64)
+    parallel_for(_across, len(frontier), values, frontier, kept_slot, kept_loc, boxmap, block_of,
+                 block_origins, block, fine, iso, across)
+    return _activate(across.reshape(-1), active)
+
+
+@nb.njit(cache=True, nogil=True)
+def _across(
+    start, stop, values, frontier, kept_slot, kept_loc, boxmap, block_of, block_origins, block,
+    fine, iso, across
+):
+    """For frontier boxes start..stop - 1, the kept box across each face (axis, side) with a
+    crossed lattice edge, in across[q, 2 * axis + side], else -1."""
     nbx, nby, nbz = block_of.shape
     g = np.empty(3, dtype=np.int64)
-    for q in frontier:
-        b = kept_slot[q]
-        i, j, k = kept_loc[q, 0], kept_loc[q, 1], kept_loc[q, 2]
+    for q in range(start, stop):
+        b = kept_slot[frontier[q]]
+        i, j, k = kept_loc[frontier[q], 0], kept_loc[frontier[q], 1], kept_loc[frontier[q], 2]
         for axis in range(3):
             for side in range(2):
+                across[q, 2 * axis + side] = -1
                 if not _face_crossed(values, b, i, j, k, axis, side, fine, iso):
                     continue
                 g[0] = block_origins[b, 0] + i
@@ -152,16 +171,24 @@ def spread(
                 nb_slot = block_of[bx, by, bz]
                 if nb_slot < 0:
                     continue
-                r = boxmap[
+                across[q, 2 * axis + side] = boxmap[
                     nb_slot,
                     (g[0] - block_origins[nb_slot, 0]) // fine,
                     (g[1] - block_origins[nb_slot, 1]) // fine,
                     (g[2] - block_origins[nb_slot, 2]) // fine,
                 ]
-                if r >= 0 and not active[r]:
-                    active[r] = True
-                    out[n] = r
-                    n += 1
+
+
+@nb.njit(cache=True)
+def _activate(boxes, active):
+    """The boxes (>= 0) not yet active, each once, in order; marks them active."""
+    out = np.empty(boxes.shape[0], dtype=np.int64)
+    n = 0
+    for r in boxes:
+        if r >= 0 and not active[r]:
+            active[r] = True
+            out[n] = r
+            n += 1
     return out[:n]
 
 

@@ -286,10 +286,14 @@ def _sample(prog, grid: _Grid, boxes):
     """
     kept, kept_value = boxes
     nb = grid.blocks
-    codes, kept_slot = np.unique(_block_code(kept, nb), return_inverse=True)
+    code = _block_code(kept, nb)
+    present = np.zeros(int(np.prod(nb)), dtype=bool)
+    present[code] = True
+    codes = np.flatnonzero(present)  # the blocks holding kept boxes, in order
     block_origins = np.stack(np.unravel_index(codes, tuple(nb)), axis=1) * BLOCK
     block_of = np.full(tuple(nb), -1, dtype=np.int64)
     block_of.reshape(-1)[codes] = np.arange(len(codes))
+    kept_slot = block_of.reshape(-1)[code]
     kept_loc = kept - block_origins[kept_slot]
     values, sampled, boxmap = new_store(len(codes), BLOCK, FINE, kept_slot, kept_loc, kept_value)
 
