@@ -225,12 +225,13 @@ def block_triangles(values, origins, cell_start, cells, dims, iso: float):
     q at ``cell_start[q]:cell_start[q + 1]``; ``dims`` (3,): lattice points per axis (for the
     keys).  Returns
 
-    * ``keys`` (V,): lattice-edge keys of the edge vertices, ``f0``, ``f1`` (V,) the samples at
-      each edge's ends (vertices on block faces appear once per block that uses them);
+    * ``keys`` (V,): lattice-edge keys of the edge vertices, each once, ``f0``, ``f1`` (V,) the
+      samples at each edge's ends;
     * ``centres`` (C, 3): lattice coordinates of the extra vertices at the centre of loops that
       admit no safe fan (see :func:`_fan_apex`; rare, only at ambiguous faces);
-    * ``tris`` (T, 3): vertex indices, ``i >= 0`` an edge vertex, ``-1 - i`` centre ``i``;
-      oriented outward (counter-clockwise seen from the side of lower field).
+    * ``tris`` (T, 3): vertex indices (int32 unless there are 2^31 vertices), the edge vertices
+      first, then the centres; oriented outward (counter-clockwise seen from the side of lower
+      field).
     """
     counts = np.zeros((len(values), 3), dtype=np.int64)
     parallel_for(_block_counts, len(values), values, cell_start, cells, iso, counts,
@@ -242,16 +243,48 @@ def block_triangles(values, origins, cell_start, cells, dims, iso: float):
     f1 = np.empty(off[-1, 0])
     centres = np.empty((off[-1, 1], 3))
     tris = np.empty((off[-1, 2], 3), dtype=np.int64)
+    shared = np.empty(off[-1, 0], dtype=np.bool_)
     parallel_for(_block_fill, len(values), values, origins, cell_start, cells, dims, iso, off,
-                 keys, f0, f1, centres, tris, parts=min(len(values), CHUNKS))
-    return keys, f0, f1, centres, tris
+                 keys, f0, f1, centres, tris, shared, parts=min(len(values), CHUNKS))
+    first, index = _weld(keys, shared)
+    out = np.empty(tris.shape, dtype=np.int32 if len(first) + len(centres) < 2**31 else np.int64)
+    parallel_for(_renumber, len(tris), tris, index, len(first), out)
+    return keys[first], f0[first], f1[first], centres, out
+
+
+def _weld(keys: np.ndarray, shared: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The vertices to keep (the first of each key) and each vertex's index among them.  Each
+    block lists an edge once, so only edges on block faces (``shared``) can repeat: only those
+    are sorted."""
+    candidates = np.flatnonzero(shared)
+    order = candidates[np.argsort(keys[candidates], kind="stable")]
+    repeat = np.zeros(len(order), dtype=bool)
+    np.equal(keys[order[1:]], keys[order[:-1]], out=repeat[1:])
+    # each repeat's first occurrence: the last place in ``order`` where a new key began
+    head = order[np.maximum.accumulate(np.where(repeat, 0, np.arange(len(order))))]
+    keep = np.ones(len(keys), dtype=bool)
+    keep[order[repeat]] = False
+    index = np.cumsum(keep) - 1
+    index[order[repeat]] = index[head[repeat]]
+    return np.flatnonzero(keep), index
+
+
+@nb.njit(cache=True, nogil=True)
+def _renumber(start, stop, tris, index, nverts, out):
+    """Triangles start..stop - 1 on the welded vertices: edge vertex i becomes index[i], centre
+    ``-1 - i`` becomes nverts + i."""
+    for t in range(start, stop):
+        for c in range(3):
+            v = tris[t, c]
+            out[t, c] = index[v] if v >= 0 else nverts - 1 - v
 
 
 @nb.njit(cache=True, nogil=True)
 def _block_fill(start, stop, values, origins, cell_start, cells, dims, iso, off, keys, f0, f1,
-                centres, tris):
+                centres, tris, shared):
     """The work of :func:`block_triangles` for blocks start..stop - 1, each block writing from
-    its offsets ``off``."""
+    its offsets ``off``; ``shared``: whether each edge lies on a face of its block (so another
+    block may list it too)."""
     m = values.shape[1]
     vid = np.full(m * m * m * 3, -1, dtype=np.int64)
     touched = np.empty(m * m * m * 3, dtype=np.int64)
@@ -259,7 +292,7 @@ def _block_fill(start, stop, values, origins, cell_start, cells, dims, iso, off,
     v = np.empty(8)
     for blk in range(start, stop):
         _fill_block(values, blk, origins, cell_start, cells, dims, iso, off, keys, f0, f1,
-                    centres, tris, vid, touched, scratch, v)
+                    centres, tris, shared, vid, touched, scratch, v)
 
 
 @nb.njit(cache=True)
@@ -277,6 +310,7 @@ def _fill_block(
     f1,
     centres,
     tris,
+    shared,
     vid,
     touched,
     scratch,
@@ -312,6 +346,9 @@ def _fill_block(
                     keys[ov] = (((oi + li) * d1 + (oj + lj)) * d2 + (ok + lk)) * 3 + a
                     f0[ov] = values[blk, li, lj, lk]
                     f1[ov] = values[blk, li + (a == 0), lj + (a == 1), lk + (a == 2)]
+                    shared[ov] = ((a != 0 and (li == 0 or li == m - 1))
+                                  or (a != 1 and (lj == 0 or lj == m - 1))
+                                  or (a != 2 and (lk == 0 or lk == m - 1)))
                     ov += 1
                 cell_vid[r] = vid[slot]
             apex = _fan_apex(loops, pos, n)

@@ -60,11 +60,14 @@ def bracket_step(start, stop, rows, g, t, ta, tb, ga, gb, last, tol, done):
 
 @nb.njit(cache=True, nogil=True)
 def final_roots(start, stop, ta, tb, ga, gb, t, t_lo, t_hi, p0, axis, h, out):
-    """The bracket (kept ``1e-4`` from the edge's ends) into t_lo, t_hi, the secant root inside
-    it into t, and its point into out."""
+    """The bracket (kept ``1e-4`` from the edge's ends, so that no two edges' vertices meet)
+    into t_lo, t_hi, the secant root inside it into t, and its point into out."""
     for r in range(start, stop):
         t_lo[r] = max(min(ta[r], tb[r]), 1e-4)
         t_hi[r] = min(max(ta[r], tb[r]), 1.0 - 1e-4)
+        if t_hi[r] < t_lo[r]:  # closed on an end (the sample there at the iso-value, but the
+            # field at the same point computed from the edge's end a rounding below it)
+            t_lo[r] = t_hi[r] = min(max(ta[r], 1e-4), 1.0 - 1e-4)
         t[r] = min(max(_secant(ta[r], tb[r], ga[r], gb[r]), t_lo[r]), t_hi[r])
         for c in range(3):
             out[r, c] = p0[r, c]

@@ -9,7 +9,8 @@
    from those showing both sides of 0.5 outwards across crossed faces.  Work therefore grows
    with the surface (about 4x per doubling of the resolution), not with the volume.
 3. **Contour** the wholly sampled boxes with the face-consistent marching cubes of
-   :mod:`blobtree.mesh._kernels`; vertices are keyed on lattice edges and welded.
+   :mod:`blobtree.mesh._kernels`; vertices are keyed on lattice edges and welded (only those
+   on the faces of blocks can repeat).
 4. **Place** every vertex on the iso-surface: regula falsi steps on the real field along its
    lattice edge, batched over all vertices, then a Newton step from the one evaluation that
    also gives the normals (from the gradient) and colours (from the albedo).
@@ -107,12 +108,8 @@ def polygonize(
             values, block_origins, cell_start, cells, grid.dims, ISO
         )
         del values
-        keys, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
-        inverse = inverse.reshape(-1)
-        tris = np.where(tris >= 0, inverse[np.maximum(tris, 0)], len(keys) - 1 - tris)
-        tris = tris.astype(np.int32 if len(keys) + len(centres) < 2**31 else np.int64)
         bar.update()
-        verts, grad, colors = _place(prog, grid, keys, f0[first], f1[first], centres)
+        verts, grad, colors = _place(prog, grid, keys, f0, f1, centres)
         bar.update()
     return Mesh(verts, tris, _normals(grad, verts, tris), np.clip(colors, 0.0, 1.0))
 
