@@ -138,4 +138,4 @@ def ellipsoid_half(m: np.ndarray, radius: float) -> np.ndarray:
 
 def spectral_norm(a: np.ndarray) -> float:
     """Largest singular value of a 3x3 matrix."""
-    return float(np.linalg.norm(a, 2))
+    return float(np.linalg.svd(a, compute_uv=False)[0])
