@@ -52,17 +52,22 @@ def parallel_for(kernel: Callable[..., Any], n: int, *args: Any, parts: int | No
     ``args``.  ``parts`` sets how finely the range is cut (default: a few parts per thread, none
     smaller than ``grain`` items: 1 where an item is itself a large piece of work).
     """
+    parallel_map(kernel, n, *args, parts=parts, grain=grain)
+
+
+def parallel_map(kernel: Callable[..., Any], n: int, *args: Any, parts: int | None = None,
+                 grain: int = MIN_PART) -> list[Any]:
+    """:func:`parallel_for`, returning what the kernel returned for each part, in order (none
+    for n <= 0)."""
     k = threads()
     if parts is None:
         parts = min(PARTS_PER_THREAD * k, -(-n // grain))
     parts = max(1, min(n, parts))
     if n <= 0:
-        return
+        return []
     if k == 1 or parts == 1:
-        kernel(0, n, *args)
-        return
+        return [kernel(0, n, *args)]
     cuts = [n * i // parts for i in range(parts + 1)]
     futures = [_executor(k).submit(kernel, a, b, *args)
                for a, b in zip(cuts[:-1], cuts[1:], strict=True) if b > a]
-    for f in futures:
-        f.result()
+    return [f.result() for f in futures]

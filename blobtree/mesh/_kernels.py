@@ -27,7 +27,7 @@ import itertools
 import numba as nb
 import numpy as np
 
-from ..parallel import parallel_for
+from ..parallel import parallel_for, parallel_map
 
 # --- cell geometry, generated (corner c = x + 2y + 4z) ----------------------------------------
 
@@ -171,52 +171,6 @@ def _edge_slot(e, i, j, k, m):
     ) * 3 + (EDGE_AXIS[e])
 
 
-@nb.njit(cache=True, nogil=True)
-def _block_counts(start, stop, values, cell_start, cells, iso, counts):
-    """(edge vertices, centre vertices, triangles) produced by the listed cells of blocks
-    start..stop - 1, into counts."""
-    m = values.shape[1]
-    seen = np.zeros(m * m * m * 3, dtype=np.bool_)
-    touched = np.empty(m * m * m * 3, dtype=np.int64)
-    nxt = np.empty(12, dtype=np.int64)
-    loops = np.empty(12, dtype=np.int64)
-    loop_len = np.empty(4, dtype=np.int64)
-    v = np.empty(8)
-    for blk in range(start, stop):
-        _count_block(
-            values, blk, cell_start, cells, iso, seen, touched, nxt, loops, loop_len, v, counts
-        )
-
-
-@nb.njit(cache=True)
-def _count_block(
-    values, blk, cell_start, cells, iso, seen, touched, nxt, loops, loop_len, v, counts
-):
-    """Counts of one block for :func:`_block_counts`; leaves ``seen`` all False again."""
-    m = values.shape[1]
-    for c in range(cell_start[blk], cell_start[blk + 1]):
-        i, j, k = cells[c, 0], cells[c, 1], cells[c, 2]
-        if not _load_cell(values, blk, i, j, k, iso, v):
-            continue
-        pos = 0
-        for q in range(_cell_loops(v, iso, nxt, loops, loop_len)):
-            n = loop_len[q]
-            for r in range(n):
-                slot = _edge_slot(loops[pos + r], i, j, k, m)
-                if not seen[slot]:
-                    seen[slot] = True
-                    touched[counts[blk, 0]] = slot
-                    counts[blk, 0] += 1
-            if _fan_apex(loops, pos, n) < 0:
-                counts[blk, 1] += 1
-                counts[blk, 2] += n
-            else:
-                counts[blk, 2] += n - 2
-            pos += n
-    for q in range(counts[blk, 0]):
-        seen[touched[q]] = False
-
-
 def block_triangles(values, origins, cell_start, cells, dims, iso: float):
     """Contour the listed cells of a batch of blocks.
 
@@ -233,19 +187,19 @@ def block_triangles(values, origins, cell_start, cells, dims, iso: float):
       first, then the centres; oriented outward (counter-clockwise seen from the side of lower
       field).
     """
-    counts = np.zeros((len(values), 3), dtype=np.int64)
-    parallel_for(_block_counts, len(values), values, cell_start, cells, iso, counts,
-                 parts=min(len(values), CHUNKS))
-    off = np.zeros((len(values) + 1, 3), dtype=np.int64)
-    np.cumsum(counts, axis=0, out=off[1:])
-    keys = np.empty(off[-1, 0], dtype=np.int64)
-    f0 = np.empty(off[-1, 0])
-    f1 = np.empty(off[-1, 0])
-    centres = np.empty((off[-1, 1], 3))
-    tris = np.empty((off[-1, 2], 3), dtype=np.int64)
-    shared = np.empty(off[-1, 0], dtype=np.bool_)
-    parallel_for(_block_fill, len(values), values, origins, cell_start, cells, dims, iso, off,
-                 keys, f0, f1, centres, tris, shared, parts=min(len(values), CHUNKS))
+    parts = parallel_map(_fill_part, len(values), values, origins, cell_start, cells, dims, iso,
+                         parts=min(len(values), CHUNKS))
+    if not parts:
+        z = np.zeros(0)
+        return (np.zeros(0, dtype=np.int64), z, z, np.zeros((0, 3)),
+                np.zeros((0, 3), dtype=np.int32))
+    keys, f0, f1, shared, centres = (np.concatenate([part[k] for part in parts])
+                                     for k in range(5))
+    # each part numbered its vertices and centres from 0: shift them past the earlier parts'
+    v_base = np.cumsum([0] + [len(part[0]) for part in parts])
+    c_base = np.cumsum([0] + [len(part[4]) for part in parts])
+    tris = np.concatenate([np.where(part[5] >= 0, part[5] + v_base[q], part[5] - c_base[q])
+                           for q, part in enumerate(parts)])
     first, index = _weld(keys, shared)
     out = np.empty(tris.shape, dtype=np.int32 if len(first) + len(centres) < 2**31 else np.int64)
     parallel_for(_renumber, len(tris), tris, index, len(first), out)
@@ -280,19 +234,45 @@ def _renumber(start, stop, tris, index, nverts, out):
 
 
 @nb.njit(cache=True, nogil=True)
-def _block_fill(start, stop, values, origins, cell_start, cells, dims, iso, off, keys, f0, f1,
-                centres, tris, shared):
-    """The work of :func:`block_triangles` for blocks start..stop - 1, each block writing from
-    its offsets ``off``; ``shared``: whether each edge lies on a face of its block (so another
-    block may list it too)."""
+def _fill_part(start, stop, values, origins, cell_start, cells, dims, iso):
+    """The work of :func:`block_triangles` for blocks start..stop - 1 in one pass, into arrays
+    grown as needed: (keys, f0, f1, shared, centres, tris), numbered from 0 within the part
+    (``shared``: whether each edge lies on a face of its block, so another block may list it
+    too)."""
     m = values.shape[1]
     vid = np.full(m * m * m * 3, -1, dtype=np.int64)
     touched = np.empty(m * m * m * 3, dtype=np.int64)
     scratch = np.empty(12 + 12 + 4 + 13, dtype=np.int64)
     v = np.empty(8)
+    guess = cell_start[stop] - cell_start[start] + 16  # about one vertex per listed cell
+    keys = np.empty(guess, dtype=np.int64)
+    f0 = np.empty(guess)
+    f1 = np.empty(guess)
+    shared = np.empty(guess, dtype=np.bool_)
+    centres = np.empty((16, 3))
+    tris = np.empty((2 * guess, 3), dtype=np.int64)
+    ov = oc = ot = 0
     for blk in range(start, stop):
-        _fill_block(values, blk, origins, cell_start, cells, dims, iso, off, keys, f0, f1,
-                    centres, tris, shared, vid, touched, scratch, v)
+        most = 12 * (cell_start[blk + 1] - cell_start[blk])  # a cell adds at most 12 of each
+        if ov + most > keys.shape[0]:
+            size = max(2 * keys.shape[0], ov + most)
+            keys, f0, f1, shared = (_grown(keys, size), _grown(f0, size), _grown(f1, size),
+                                    _grown(shared, size))
+        if ot + most > tris.shape[0]:
+            tris = _grown(tris, max(2 * tris.shape[0], ot + most))
+        if oc + most // 3 > centres.shape[0]:  # at most 4 loops, each one centre
+            centres = _grown(centres, max(2 * centres.shape[0], oc + most // 3))
+        ov, oc, ot = _fill_block(values, blk, origins, cell_start, cells, dims, iso, ov, oc, ot,
+                                 keys, f0, f1, centres, tris, shared, vid, touched, scratch, v)
+    return keys[:ov], f0[:ov], f1[:ov], shared[:ov], centres[:oc], tris[:ot]
+
+
+@nb.njit(cache=True)
+def _grown(a, size):
+    """A copy of ``a`` with room for ``size`` rows."""
+    out = np.empty((size,) + a.shape[1:], dtype=a.dtype)
+    out[:a.shape[0]] = a
+    return out
 
 
 @nb.njit(cache=True)
@@ -304,7 +284,9 @@ def _fill_block(
     cells,
     dims,
     iso,
-    off,
+    ov,
+    oc,
+    ot,
     keys,
     f0,
     f1,
@@ -316,7 +298,8 @@ def _fill_block(
     scratch,
     v,
 ):
-    """One block of :func:`_block_fill`; leaves ``vid`` all -1 again."""
+    """One block of :func:`_fill_part`, writing from (ov, oc, ot) on; returns where the next
+    block writes, and leaves ``vid`` all -1 again."""
     m = values.shape[1]
     d1 = dims[1]
     d2 = dims[2]
@@ -324,7 +307,7 @@ def _fill_block(
     loops = scratch[12:24]
     loop_len = scratch[24:28]
     cell_vid = scratch[28:]
-    ov, oc, ot = off[blk, 0], off[blk, 1], off[blk, 2]
+    v0 = ov
     oi, oj, ok = origins[blk, 0], origins[blk, 1], origins[blk, 2]
     for c in range(cell_start[blk], cell_start[blk + 1]):
         i, j, k = cells[c, 0], cells[c, 1], cells[c, 2]
@@ -342,7 +325,7 @@ def _fill_block(
                 slot = _edge_slot(e, i, j, k, m)
                 if vid[slot] < 0:
                     vid[slot] = ov
-                    touched[ov - off[blk, 0]] = slot
+                    touched[ov - v0] = slot
                     keys[ov] = (((oi + li) * d1 + (oj + lj)) * d2 + (ok + lk)) * 3 + a
                     f0[ov] = values[blk, li, lj, lk]
                     f1[ov] = values[blk, li + (a == 0), lj + (a == 1), lk + (a == 2)]
@@ -374,8 +357,9 @@ def _fill_block(
                     tris[ot, 2] = cell_vid[(apex + r) % n]
                     ot += 1
             pos += n
-    for q in range(off[blk + 1, 0] - off[blk, 0]):
+    for q in range(ov - v0):
         vid[touched[q]] = -1
+    return ov, oc, ot
 
 
 @nb.njit(cache=True, inline="always")
