@@ -120,6 +120,19 @@ def test_normals_point_out_and_agree_with_faces():
     assert np.allclose(m.colors, (1, 0, 0))
 
 
+def test_normal_where_the_gradient_vanishes_is_the_faces_normal():
+    """A vertex with no gradient takes the area-weighted normal of its faces (here the corner
+    of a tetrahedron at the origin, whose three faces point along -x, -y and -z)."""
+    from blobtree.mesh.polygonizer import _normals
+
+    verts = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
+    tris = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+    grad = np.array([[0.0, 0, 0], [-2, 0, 0], [0, -3, 0], [0, 0, -4]])
+    n = _normals(grad, verts, tris)
+    np.testing.assert_allclose(n[0], -np.ones(3) / np.sqrt(3))
+    np.testing.assert_allclose(n[1:], np.eye(3))
+
+
 def test_whorl126_is_closed_and_manifold():
     m = polygonize(bt.models.whorl126(), resolution=48)
     assert_closed_manifold(m)

@@ -10,6 +10,8 @@ still refining.  Every kernel takes its part ``(start, stop)`` of the rows for
 
 from __future__ import annotations
 
+import math
+
 import numba as nb
 
 
@@ -85,3 +87,16 @@ def newton_step(start, stop, f, grad, iso, axis, h, t, t_lo, t_hi, movable, vert
         t_new = t[r] - (f[r] - iso) / slope
         if t_lo[r] < t_new < t_hi[r]:
             verts[r, axis[r]] += (t_new - t[r]) * h
+
+
+@nb.njit(cache=True, nogil=True)
+def outward_normals(start, stop, grad, out, flat):
+    """Unit outward normals -grad f / |grad f| of vertices start..stop - 1 into out; where
+    |grad f| < 1e-12, ``flat`` is set and out left at 0 (the caller puts a face normal
+    there)."""
+    for r in range(start, stop):
+        gx, gy, gz = -grad[r, 0], -grad[r, 1], -grad[r, 2]
+        length = math.sqrt(gx * gx + gy * gy + gz * gz)
+        flat[r] = length < 1e-12
+        scale = 0.0 if flat[r] else 1.0 / length
+        out[r, 0], out[r, 1], out[r, 2] = gx * scale, gy * scale, gz * scale

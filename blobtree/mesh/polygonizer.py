@@ -40,7 +40,7 @@ from ._lattice import (
     split,
     spread,
 )
-from ._place import bracket_step, final_roots, newton_step, secant_points
+from ._place import bracket_step, final_roots, newton_step, outward_normals, secant_points
 from .export import Mesh
 
 #: what the arguments may be
@@ -376,15 +376,14 @@ def _project(prog, grid: _Grid, p: np.ndarray) -> np.ndarray:
 
 def _normals(grad: np.ndarray, verts: np.ndarray, tris: np.ndarray) -> np.ndarray:
     """Unit outward normals -grad f / |grad f|; face normals where the gradient vanishes."""
-    normals = -np.asarray(grad, dtype=np.float64)
-    length = np.linalg.norm(normals, axis=1)
-    flat = length < 1e-12
+    normals, flat = np.empty_like(grad), np.empty(len(grad), dtype=bool)
+    parallel_for(outward_normals, len(grad), grad, normals, flat)
     if np.any(flat):
         tri = verts[tris]
         fn = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
         acc = np.zeros_like(verts)
         for c in range(3):
             np.add.at(acc, tris[:, c], fn)
-        normals[flat] = acc[flat]
-        length = np.linalg.norm(normals, axis=1)
-    return normals / np.where(length > 0, length, 1.0)[:, None]
+        length = np.linalg.norm(acc[flat], axis=1)
+        normals[flat] = acc[flat] / np.where(length > 0, length, 1.0)[:, None]
+    return normals
