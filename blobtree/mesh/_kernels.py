@@ -259,9 +259,9 @@ def _fill_part(start, stop, values, origins, cell_start, cells, dims, iso):
             keys, f0, f1, shared = (_grown(keys, size), _grown(f0, size), _grown(f1, size),
                                     _grown(shared, size))
         if ot + most > tris.shape[0]:
-            tris = _grown(tris, max(2 * tris.shape[0], ot + most))
+            tris = _grown_rows(tris, max(2 * tris.shape[0], ot + most))
         if oc + most // 3 > centres.shape[0]:  # at most 4 loops, each one centre
-            centres = _grown(centres, max(2 * centres.shape[0], oc + most // 3))
+            centres = _grown_rows(centres, max(2 * centres.shape[0], oc + most // 3))
         ov, oc, ot = _fill_block(values, blk, origins, cell_start, cells, dims, iso, ov, oc, ot,
                                  keys, f0, f1, centres, tris, shared, vid, touched, scratch, v)
     return keys[:ov], f0[:ov], f1[:ov], shared[:ov], centres[:oc], tris[:ot]
@@ -269,9 +269,21 @@ def _fill_part(start, stop, values, origins, cell_start, cells, dims, iso):
 
 @nb.njit(cache=True)
 def _grown(a, size):
-    """A copy of ``a`` with room for ``size`` rows."""
-    out = np.empty((size,) + a.shape[1:], dtype=a.dtype)
-    out[:a.shape[0]] = a
+    """A copy of the 1-D array ``a`` with room for ``size`` items."""
+    out = np.empty(size, dtype=a.dtype)
+    for i in range(a.shape[0]):  # (a loop: slice assignment takes seconds to compile)
+        out[i] = a[i]
+    return out
+
+
+@nb.njit(cache=True)
+def _grown_rows(a, size):
+    """A copy of the (n, 3) array ``a`` with room for ``size`` rows (the shape spelled out: a
+    shape built by tuple concatenation takes seconds to compile)."""
+    out = np.empty((size, 3), dtype=a.dtype)
+    for i in range(a.shape[0]):
+        for c in range(3):
+            out[i, c] = a[i, c]
     return out
 
 
