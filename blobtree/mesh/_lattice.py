@@ -13,24 +13,40 @@ import numpy as np
 from ..parallel import parallel_for
 
 
-@nb.njit(cache=True)
 def new_store(nblocks, block, fine, kept_slot, kept_loc, kept_value):
     """Values, which points are sampled, and the kept-box map ``(B, s, s, s)`` (s = block /
     fine) of the blocks, with the centres of kept boxes (sampled by the culling) stored.  Only
-    points of kept boxes are ever sampled or read."""
+    points of kept boxes are ever sampled or read.  (Both passes run in parallel: each block,
+    then each box, writes its own entries, and the memory's first touch is shared out.)"""
     m = block + 1
     s = block // fine
     values = np.empty((nblocks, m, m, m))
-    sampled = np.zeros((nblocks, m, m, m), dtype=np.bool_)
-    boxmap = np.full((nblocks, s, s, s), -1, dtype=np.int64)
+    sampled = np.empty((nblocks, m, m, m), dtype=np.bool_)
+    boxmap = np.empty((nblocks, s, s, s), dtype=np.int64)
+    parallel_for(_clear_blocks, nblocks, sampled, boxmap)
+    parallel_for(_store_centres, len(kept_slot), fine, kept_slot, kept_loc, kept_value, values,
+                 sampled, boxmap)
+    return values, sampled, boxmap
+
+
+@nb.njit(cache=True, nogil=True)
+def _clear_blocks(start, stop, sampled, boxmap):
+    """Blocks start..stop - 1: nothing sampled, no kept box."""
+    for b in range(start, stop):
+        sampled[b] = False
+        boxmap[b] = -1
+
+
+@nb.njit(cache=True, nogil=True)
+def _store_centres(start, stop, fine, kept_slot, kept_loc, kept_value, values, sampled, boxmap):
+    """Kept boxes start..stop - 1 into the map, their centres' values stored as sampled."""
     half = fine // 2
-    for q in range(kept_slot.shape[0]):
+    for q in range(start, stop):
         b = kept_slot[q]
         i, j, k = kept_loc[q, 0], kept_loc[q, 1], kept_loc[q, 2]
         boxmap[b, i // fine, j // fine, k // fine] = q
         values[b, i + half, j + half, k + half] = kept_value[q]
         sampled[b, i + half, j + half, k + half] = True
-    return values, sampled, boxmap
 
 
 @nb.njit(cache=True)
@@ -192,16 +208,19 @@ def _activate(boxes, active):
     return out[:n]
 
 
-@nb.njit(cache=True)
 def box_geometry(origins, size, grid_origin, h, limit):
     """Corners lo, hi (M, 3), centres (M, 3) and half-diagonals (M,) of cubic boxes of ``size``
     cells at lattice ``origins``, cut at lattice point ``limit``."""
     n = origins.shape[0]
-    lo = np.empty((n, 3))
-    hi = np.empty((n, 3))
-    centre = np.empty((n, 3))
-    half = np.empty(n)
-    for q in range(n):
+    lo, hi, centre, half = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
+    parallel_for(_box_geometry, n, origins, size, grid_origin, h, limit, lo, hi, centre, half)
+    return lo, hi, centre, half
+
+
+@nb.njit(cache=True, nogil=True)
+def _box_geometry(start, stop, origins, size, grid_origin, h, limit, lo, hi, centre, half):
+    """:func:`box_geometry` for boxes start..stop - 1."""
+    for q in range(start, stop):
         d2 = 0.0
         for a in range(3):
             lo[q, a] = grid_origin[a] + origins[q, a] * h
@@ -209,7 +228,6 @@ def box_geometry(origins, size, grid_origin, h, limit):
             centre[q, a] = 0.5 * (lo[q, a] + hi[q, a])
             d2 += (hi[q, a] - lo[q, a]) ** 2
         half[q] = 0.5 * np.sqrt(d2)
-    return lo, hi, centre, half
 
 
 @nb.njit(cache=True)
