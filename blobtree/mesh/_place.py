@@ -24,6 +24,14 @@ def _secant(ta, tb, ga, gb):
     return min(max(t, min(ta, tb)), max(ta, tb))
 
 
+@nb.njit(cache=True, inline="always")
+def _on_edge(p0, axis, h, r, t, out, q):
+    """out[q] = vertex r's edge point at parameter t: p0[r] + t h along its axis."""
+    for c in range(3):
+        out[q, c] = p0[r, c]
+    out[q, axis[r]] += t * h
+
+
 @nb.njit(cache=True, nogil=True)
 def secant_points(start, stop, rows, p0, axis, h, ta, tb, ga, gb, t, out):
     """For vertices ``rows[start:stop]``: the secant root of each bracket into ``t`` and its
@@ -31,9 +39,7 @@ def secant_points(start, stop, rows, p0, axis, h, ta, tb, ga, gb, t, out):
     for q in range(start, stop):
         r = rows[q]
         t[r] = _secant(ta[r], tb[r], ga[r], gb[r])
-        for c in range(3):
-            out[q, c] = p0[r, c]
-        out[q, axis[r]] += t[r] * h
+        _on_edge(p0, axis, h, r, t[r], out, q)
 
 
 @nb.njit(cache=True, nogil=True)
@@ -67,13 +73,8 @@ def final_roots(start, stop, ta, tb, ga, gb, t, t_lo, t_hi, p0, axis, h, out):
     for r in range(start, stop):
         t_lo[r] = max(min(ta[r], tb[r]), 1e-4)
         t_hi[r] = min(max(ta[r], tb[r]), 1.0 - 1e-4)
-        if t_hi[r] < t_lo[r]:  # closed on an end (the sample there at the iso-value, but the
-            # field at the same point computed from the edge's end a rounding below it)
-            t_lo[r] = t_hi[r] = min(max(ta[r], 1e-4), 1.0 - 1e-4)
         t[r] = min(max(_secant(ta[r], tb[r], ga[r], gb[r]), t_lo[r]), t_hi[r])
-        for c in range(3):
-            out[r, c] = p0[r, c]
-        out[r, axis[r]] += t[r] * h
+        _on_edge(p0, axis, h, r, t[r], out, r)
 
 
 @nb.njit(cache=True, nogil=True)

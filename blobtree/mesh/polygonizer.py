@@ -211,9 +211,12 @@ def _cull(prog, grid: _Grid, budget: int):
     parent_lip = None
     while True:
         lo, hi, centre, half_diag = box_geometry(origins, size, grid.origin, grid.h, limit)
-        # the smallest boxes reuse their parent's bound: it holds over them too.  (The field
-        # at the centre is unclipped, as L bounds it.)
+        # the smallest boxes reuse their parent's bound: it holds over them too.  Their centres
+        # are lattice points whose values the sampling keeps, so they are taken where the
+        # lattice puts them (a midpoint of the corners can round differently).  (The field at
+        # the centre is unclipped, as L bounds it.)
         if size == FINE:
+            centre = grid.origin + (origins + FINE // 2) * grid.h
             lip, fc = parent_lip, prog.field(centre) if len(origins) else np.zeros(0)
             below = above = np.zeros(len(fc))
         else:
@@ -228,8 +231,7 @@ def _cull(prog, grid: _Grid, budget: int):
             # (sampled only when the most the boxes can give might not fit)
             _check_budget(_estimate_triangles(prog, grid, origins), len(origins), grid.h, budget)
         if size == FINE:
-            centres = grid.origin + (origins + FINE // 2) * grid.h
-            return origins, grid.clip_values(centres, kept_value)
+            return origins, grid.clip_values(centre[keep], kept_value)
         size //= 2
         origins, parent = split(origins, size, limit)
         parent_lip = kept_lip[parent]
