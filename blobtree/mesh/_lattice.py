@@ -225,7 +225,10 @@ def _box_geometry(start, stop, origins, size, grid_origin, h, limit, lo, hi, cen
         for a in range(3):
             lo[q, a] = grid_origin[a] + origins[q, a] * h
             hi[q, a] = grid_origin[a] + min(origins[q, a] + size, limit[a]) * h
-            centre[q, a] = 0.5 * (lo[q, a] + hi[q, a])
+            # in lattice units first: a box of even size has its centre on a lattice point,
+            # computed as the sampling computes that point (the finest boxes' values are kept)
+            centre[q, a] = grid_origin[a] + 0.5 * (origins[q, a]
+                                                   + min(origins[q, a] + size, limit[a])) * h
             d2 += (hi[q, a] - lo[q, a]) ** 2
         half[q] = 0.5 * np.sqrt(d2)
 

@@ -211,12 +211,9 @@ def _cull(prog, grid: _Grid, budget: int):
     parent_lip = None
     while True:
         lo, hi, centre, half_diag = box_geometry(origins, size, grid.origin, grid.h, limit)
-        # the smallest boxes reuse their parent's bound: it holds over them too.  Their centres
-        # are lattice points whose values the sampling keeps, so they are taken where the
-        # lattice puts them (a midpoint of the corners can round differently).  (The field at
-        # the centre is unclipped, as L bounds it.)
+        # the smallest boxes reuse their parent's bound: it holds over them too.  (The field
+        # at the centre is unclipped, as L bounds it.)
         if size == FINE:
-            centre = grid.origin + (origins + FINE // 2) * grid.h
             lip, fc = parent_lip, prog.field(centre) if len(origins) else np.zeros(0)
             below = above = np.zeros(len(fc))
         else:
