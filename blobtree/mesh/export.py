@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 import signal
 import sys
@@ -14,6 +15,7 @@ from numba import njit
 
 from ..checks import Number, positive
 from ..files import atomic_path
+from ..parallel import parallel_for
 
 #: file extension -> format; PLY and STL are encoded here (``ENCODERS``), the others by trimesh
 #: (3MF's unit is the millimetre)
@@ -66,19 +68,42 @@ def _ply_bytes(mesh: Mesh) -> bytes:
     return header.encode("ascii") + vertex.tobytes() + face.tobytes()
 
 
-def _stl_bytes(mesh: Mesh) -> bytes:
-    """Binary STL: an 80-byte header, the triangle count, then each triangle's unit normal
-    (zero for a degenerate one) and corners as float32."""
-    corners = mesh.vertices[mesh.faces]
-    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-    length = np.linalg.norm(normal, axis=1, keepdims=True)
-    floats = np.empty((len(corners), 12), dtype="<f4")
-    floats[:, :3] = normal / np.where(length > 0, length, 1.0)  # a zero normal stays zero
-    floats[:, 3:] = corners.reshape(-1, 9)
-    # 50-byte records: the 48 bytes of floats, then a zero 16-bit attribute count
-    records = np.zeros((len(corners), 25), dtype="<u2")
-    records[:, :24] = floats.view("<u2")
-    return b"blobtree".ljust(80, b" ") + np.uint32(len(corners)).tobytes() + records.tobytes()
+#: a binary STL triangle: unit normal, three corners, a zero 16-bit attribute count (50 bytes)
+_STL_RECORD = np.dtype([("normal", "<f4", 3), ("corners", "<f4", 9), ("attribute", "<u2")])
+
+
+@njit(cache=True, nogil=True)
+def _stl_floats(start, stop, vertices, faces, out):
+    """For faces ``start:stop``: the unit normal (zero for a degenerate face) and the three
+    corners, as the 12 floats of an STL record."""
+    for f in range(start, stop):
+        a, b, c = faces[f, 0], faces[f, 1], faces[f, 2]
+        u0, u1, u2 = (vertices[b, 0] - vertices[a, 0], vertices[b, 1] - vertices[a, 1],
+                      vertices[b, 2] - vertices[a, 2])
+        v0, v1, v2 = (vertices[c, 0] - vertices[a, 0], vertices[c, 1] - vertices[a, 1],
+                      vertices[c, 2] - vertices[a, 2])
+        n0, n1, n2 = u1 * v2 - u2 * v1, u2 * v0 - u0 * v2, u0 * v1 - u1 * v0
+        length = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+        scale = 1.0 / length if length > 0.0 else 0.0
+        out[f, 0], out[f, 1], out[f, 2] = n0 * scale, n1 * scale, n2 * scale
+        for k in range(3):
+            for d in range(3):
+                out[f, 3 + 3 * k + d] = vertices[faces[f, k], d]
+
+
+def _stl_bytes(mesh: Mesh) -> np.ndarray:
+    """Binary STL: an 80-byte header, the triangle count, then a 50-byte record per triangle
+    (``_STL_RECORD``), as one byte array."""
+    n = len(mesh.faces)
+    floats = np.empty((n, 12), dtype=np.float32)
+    parallel_for(_stl_floats, n, np.ascontiguousarray(mesh.vertices, dtype=np.float64),
+                 np.ascontiguousarray(mesh.faces), floats)
+    data = np.empty(84 + n * _STL_RECORD.itemsize, dtype=np.uint8)
+    data[:80] = np.frombuffer(b"blobtree".ljust(80, b" "), dtype=np.uint8)
+    data[80:84] = np.frombuffer(np.uint32(n).tobytes(), dtype=np.uint8)
+    records = data[84:].view(_STL_RECORD)
+    records["normal"], records["corners"], records["attribute"] = floats[:, :3], floats[:, 3:], 0
+    return data
 
 
 #: format -> encoder of the formats written here (no trimesh needed)
