@@ -139,10 +139,20 @@ def test_whorl126_is_closed_and_manifold():
     assert components(m) == 1
 
 
+def _tetrahedra_sharing_an_edge() -> Mesh:
+    """Two closed tetrahedra (outward faces) with the edge 0-1 in common: four faces at that
+    edge.  The second is the first turned half a turn about z (vertices 2, 3 -> 4, 5), which
+    keeps its faces' winding outward."""
+    v = np.array([[0, 0, 0], [0, 0, 1], [1, 0, 0], [0, 1, 0], [-1, 0, 0], [0, -1, 0]], float)
+    tet = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+    faces = np.concatenate([tet, np.where(tet == 2, 4, np.where(tet == 3, 5, tet))])
+    return Mesh(v, faces, v, v)
+
+
 def test_is_watertight_refuses_holes_flips_and_extra_faces():
     """Mesh.is_watertight against trimesh's checks (edges shared by two faces, consistent
     winding) on a closed mesh, two disjoint copies, and the same with one face removed, flipped
-    or repeated."""
+    or repeated, and on two tetrahedra sharing an edge."""
     m = polygonize(bt.Point(radius=1.0), resolution=12)
     v, f = m.vertices, m.faces
     two = Mesh(np.concatenate([v, v + 5.0]), np.concatenate([f, f + len(v)]),
@@ -152,7 +162,8 @@ def test_is_watertight_refuses_holes_flips_and_extra_faces():
              "flipped": (Mesh(v, np.concatenate([f[:1, ::-1], f[1:]]), m.normals, m.colors),
                          False),
              "repeated": (Mesh(v, np.concatenate([f, f[:1]]), m.normals, m.colors), False),
-             "doubled": (Mesh(v, np.concatenate([f, f]), m.normals, m.colors), False)}
+             "doubled": (Mesh(v, np.concatenate([f, f]), m.normals, m.colors), False),
+             "edge of four faces": (_tetrahedra_sharing_an_edge(), False)}
     for name, (mesh, expected) in cases.items():
         tm = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
         assert mesh.is_watertight == expected, name

@@ -133,6 +133,40 @@ def _union_faces(faces, nverts):
 
 
 @njit(cache=True)
+def _edges_pair_up(faces, nverts):
+    """Whether every directed edge of the faces occurs once and its reverse once.  The edges
+    are bucketed by their lower vertex (a counting sort); within a bucket, each edge must meet
+    exactly one other edge to the same upper vertex, running the other way."""
+    count = np.zeros(nverts + 1, dtype=np.int64)
+    for f in range(faces.shape[0]):
+        for k in range(3):
+            count[min(faces[f, k], faces[f, (k + 1) % 3]) + 1] += 1
+    for v in range(nverts):
+        count[v + 1] += count[v]
+    fill = count[:-1].copy()
+    upper = np.empty(3 * faces.shape[0], dtype=faces.dtype)
+    forward = np.empty(3 * faces.shape[0], dtype=np.bool_)
+    for f in range(faces.shape[0]):
+        for k in range(3):
+            a, b = faces[f, k], faces[f, (k + 1) % 3]
+            lo = min(a, b)
+            upper[fill[lo]], forward[fill[lo]] = max(a, b), a < b
+            fill[lo] += 1
+    for v in range(nverts):
+        for i in range(count[v], count[v + 1]):
+            same = other = 0
+            for j in range(count[v], count[v + 1]):
+                if j != i and upper[j] == upper[i]:
+                    if forward[j] == forward[i]:
+                        same += 1
+                    else:
+                        other += 1
+            if same != 0 or other != 1:
+                return False
+    return True
+
+
+@njit(cache=True)
 def _piece_volumes(vertices, faces, pieces, n):
     """Per piece, the sum over its faces of the signed volume of the tetrahedron the face makes
     with the origin, a . (b x c) / 6 (the divergence theorem)."""
@@ -162,35 +196,20 @@ class Mesh:
         z = np.zeros((0, 3))
         return cls(z, np.zeros((0, 3), dtype=np.int32), z, z)
 
-    def _edge_codes(self) -> tuple[np.ndarray, np.ndarray]:
-        """Codes of the directed edges of all faces and of their reverses."""
-        f = self.faces.astype(np.int64)
-        a = f.reshape(-1)
-        b = np.roll(f, -1, axis=1).reshape(-1)
-        n = np.int64(len(self.vertices))
-        return a * n + b, b * n + a
-
     @property
     def is_watertight(self) -> bool:
         """Closed, oriented 2-manifold at the edges: each directed edge occurs once and its
-        reverse once, i.e. every edge joins exactly two faces of opposite winding.  One sort:
-        the undirected edges' codes with the direction in the low bit must come in pairs, one
-        each way, and no edge may come in two pairs."""
+        reverse once, i.e. every edge joins exactly two faces of opposite winding."""
         if len(self.faces) == 0:
             return False
-        fwd, rev = self._edge_codes()
-        c = np.sort(np.minimum(fwd, rev) * 2 + (fwd < rev))
-        first, second = c[0::2], c[1::2]
-        return bool(len(c) % 2 == 0
-                    and np.all(first >> 1 == second >> 1)
-                    and np.all(first & 1 == 0) and np.all(second & 1 == 1)
-                    and np.all(first[1:] >> 1 != second[:-1] >> 1))
+        return bool(_edges_pair_up(np.ascontiguousarray(self.faces), len(self.vertices)))
 
     @property
     def euler_characteristic(self) -> int:
         """V - E + F (2 per sphere-like closed component)."""
-        fwd, rev = self._edge_codes()
-        edges = len(np.unique(np.minimum(fwd, rev)))
+        f = self.faces.astype(np.int64)
+        a, b = f.reshape(-1), np.roll(f, -1, axis=1).reshape(-1)
+        edges = len(np.unique(np.minimum(a, b) * len(self.vertices) + np.maximum(a, b)))
         used = len(np.unique(self.faces))
         return used - edges + len(self.faces)
 
