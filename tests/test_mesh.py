@@ -79,7 +79,7 @@ def test_kernel_is_watertight_on_noise(seed, quantized):
     cells = np.stack(np.meshgrid(*[np.arange(m - 1)] * 3, indexing="ij"), -1).reshape(-1, 3)
     keys, _, _, centres, tris = block_triangles(
         blocks, np.array([[0, 0, 0], [m - 1, 0, 0]]), np.array([0, len(cells), 2 * len(cells)]),
-        np.concatenate([cells, cells]), np.array(v.shape), 0.5)
+        np.concatenate([cells, cells]), 1, np.array(v.shape), 0.5)  # boxes of one cell
     assert len(np.unique(keys)) == len(keys)
     assert tris.min() >= 0 and tris.max() < len(keys) + len(centres)
     z = np.zeros((len(keys) + len(centres), 3))

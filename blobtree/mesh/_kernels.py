@@ -171,13 +171,13 @@ def _edge_slot(e, i, j, k, m):
     ) * 3 + (EDGE_AXIS[e])
 
 
-def block_triangles(values, origins, cell_start, cells, dims, iso: float):
-    """Contour the listed cells of a batch of blocks.
+def block_triangles(values, origins, box_start, boxes, fine: int, dims, iso: float):
+    """Contour the cells of the listed boxes of a batch of blocks.
 
     ``values`` (K, b+1, b+1, b+1): samples of each block; ``origins`` (K, 3): each block's first
-    lattice point; ``cells`` (C, 3): local coordinates of the cells to contour, those of block
-    q at ``cell_start[q]:cell_start[q + 1]``; ``dims`` (3,): lattice points per axis (for the
-    keys).  Returns
+    lattice point; ``boxes`` (B, 3): local coordinates of the first cell of each box of
+    ``fine``^3 cells to contour, those of block q at ``box_start[q]:box_start[q + 1]``;
+    ``dims`` (3,): lattice points per axis (for the keys).  Returns
 
     * ``keys`` (V,): lattice-edge keys of the edge vertices, each once, ``f0``, ``f1`` (V,) the
       samples at each edge's ends;
@@ -187,22 +187,21 @@ def block_triangles(values, origins, cell_start, cells, dims, iso: float):
       first, then the centres; oriented outward (counter-clockwise seen from the side of lower
       field).
     """
-    parts = parallel_map(_fill_part, len(values), values, origins, cell_start, cells, dims, iso,
-                         parts=min(len(values), CHUNKS))
+    parts = parallel_map(_fill_part, len(values), values, origins, box_start, boxes, fine, dims,
+                         iso, parts=min(len(values), CHUNKS))
     if not parts:
         z = np.zeros(0)
         return (np.zeros(0, dtype=np.int64), z, z, np.zeros((0, 3)),
                 np.zeros((0, 3), dtype=np.int32))
     keys, f0, f1, shared, centres = (np.concatenate([part[k] for part in parts])
                                      for k in range(5))
-    # each part numbered its vertices and centres from 0: shift them past the earlier parts'
-    v_base = np.cumsum([0] + [len(part[0]) for part in parts])
-    c_base = np.cumsum([0] + [len(part[4]) for part in parts])
-    tris = np.concatenate([np.where(part[5] >= 0, part[5] + v_base[q], part[5] - c_base[q])
-                           for q, part in enumerate(parts)])
+    tris = np.concatenate([part[5] for part in parts])
+    # where each part's triangles, vertices and centres start (each part numbered from 0)
+    t_base, v_base, c_base = (np.cumsum([0] + [len(part[k]) for part in parts])
+                              for k in (5, 0, 4))
     first, index = _weld(keys, shared)
     out = np.empty(tris.shape, dtype=np.int32 if len(first) + len(centres) < 2**31 else np.int64)
-    parallel_for(_renumber, len(tris), tris, index, len(first), out)
+    parallel_for(_renumber, len(tris), tris, t_base, v_base, c_base, index, len(first), out)
     return keys[first], f0[first], f1[first], centres, out
 
 
@@ -224,17 +223,21 @@ def _weld(keys: np.ndarray, shared: np.ndarray) -> tuple[np.ndarray, np.ndarray]
 
 
 @nb.njit(cache=True, nogil=True)
-def _renumber(start, stop, tris, index, nverts, out):
-    """Triangles start..stop - 1 on the welded vertices: edge vertex i becomes index[i], centre
-    ``-1 - i`` becomes nverts + i."""
+def _renumber(start, stop, tris, t_base, v_base, c_base, index, nverts, out):
+    """Triangles start..stop - 1 (part q's from ``t_base[q]``, numbered within the part) on the
+    welded vertices: part q's edge vertex i becomes ``index[v_base[q] + i]``, its centre
+    ``-1 - i`` becomes ``nverts + c_base[q] + i``."""
+    q = np.searchsorted(t_base, start, side="right") - 1
     for t in range(start, stop):
+        while t >= t_base[q + 1]:
+            q += 1
         for c in range(3):
             v = tris[t, c]
-            out[t, c] = index[v] if v >= 0 else nverts - 1 - v
+            out[t, c] = index[v_base[q] + v] if v >= 0 else nverts + c_base[q] - 1 - v
 
 
 @nb.njit(cache=True, nogil=True)
-def _fill_part(start, stop, values, origins, cell_start, cells, dims, iso):
+def _fill_part(start, stop, values, origins, box_start, boxes, fine, dims, iso):
     """The work of :func:`block_triangles` for blocks start..stop - 1 in one pass, into arrays
     grown as needed: (keys, f0, f1, shared, centres, tris), numbered from 0 within the part
     (``shared``: whether each edge lies on a face of its block, so another block may list it
@@ -244,7 +247,8 @@ def _fill_part(start, stop, values, origins, cell_start, cells, dims, iso):
     touched = np.empty(m * m * m * 3, dtype=np.int64)
     scratch = np.empty(12 + 12 + 4 + 13, dtype=np.int64)
     v = np.empty(8)
-    guess = cell_start[stop] - cell_start[start] + 16  # about one vertex per listed cell
+    cells = fine * fine * fine  # per box
+    guess = (box_start[stop] - box_start[start]) * cells + 16  # about one vertex per cell
     keys = np.empty(guess, dtype=np.int64)
     f0 = np.empty(guess)
     f1 = np.empty(guess)
@@ -253,7 +257,7 @@ def _fill_part(start, stop, values, origins, cell_start, cells, dims, iso):
     tris = np.empty((2 * guess, 3), dtype=np.int64)
     ov = oc = ot = 0
     for blk in range(start, stop):
-        most = 12 * (cell_start[blk + 1] - cell_start[blk])  # a cell adds at most 12 of each
+        most = 12 * cells * (box_start[blk + 1] - box_start[blk])  # a cell adds 12 at most
         if ov + most > keys.shape[0]:
             size = max(2 * keys.shape[0], ov + most)
             keys, f0, f1, shared = (_grown(keys, size), _grown(f0, size), _grown(f1, size),
@@ -262,8 +266,9 @@ def _fill_part(start, stop, values, origins, cell_start, cells, dims, iso):
             tris = _grown_rows(tris, max(2 * tris.shape[0], ot + most))
         if oc + most // 3 > centres.shape[0]:  # at most 4 loops, each one centre
             centres = _grown_rows(centres, max(2 * centres.shape[0], oc + most // 3))
-        ov, oc, ot = _fill_block(values, blk, origins, cell_start, cells, dims, iso, ov, oc, ot,
-                                 keys, f0, f1, centres, tris, shared, vid, touched, scratch, v)
+        ov, oc, ot = _fill_block(values, blk, origins, box_start, boxes, fine, dims, iso, ov, oc,
+                                 ot, keys, f0, f1, centres, tris, shared, vid, touched, scratch,
+                                 v)
     return keys[:ov], f0[:ov], f1[:ov], shared[:ov], centres[:oc], tris[:ot]
 
 
@@ -292,8 +297,9 @@ def _fill_block(
     values,
     blk,
     origins,
-    cell_start,
-    cells,
+    box_start,
+    boxes,
+    fine,
     dims,
     iso,
     ov,
@@ -321,8 +327,11 @@ def _fill_block(
     cell_vid = scratch[28:]
     v0 = ov
     oi, oj, ok = origins[blk, 0], origins[blk, 1], origins[blk, 2]
-    for c in range(cell_start[blk], cell_start[blk + 1]):
-        i, j, k = cells[c, 0], cells[c, 1], cells[c, 2]
+    for c in range(box_start[blk] * fine**3, box_start[blk + 1] * fine**3):
+        b, d = divmod(c, fine**3)  # box b's cell d
+        i = boxes[b, 0] + d // (fine * fine)
+        j = boxes[b, 1] + d // fine % fine
+        k = boxes[b, 2] + d % fine
         if not _load_cell(values, blk, i, j, k, iso, v):
             continue
         pos = 0

@@ -33,6 +33,19 @@ def _on_edge(p0, axis, h, r, t, out, q):
 
 
 @nb.njit(cache=True, nogil=True)
+def edge_starts(start, stop, keys, dims, origin, h, p0, axis):
+    """For vertices start..stop - 1: the lower lattice point p0 (origin + index * h) and the
+    axis of each one's lattice edge, from its key (point index * 3 + axis, the point's index
+    running over ``dims`` in C order)."""
+    for r in range(start, stop):
+        point = keys[r] // 3
+        axis[r] = keys[r] % 3
+        for c in range(2, -1, -1):
+            p0[r, c] = origin[c] + (point % dims[c]) * h
+            point //= dims[c]
+
+
+@nb.njit(cache=True, nogil=True)
 def secant_points(start, stop, rows, p0, axis, h, ta, tb, ga, gb, t, out):
     """For vertices ``rows[start:stop]``: the secant root of each bracket into ``t`` and its
     point on the edge into ``out[start:stop]``."""

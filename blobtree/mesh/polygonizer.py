@@ -41,7 +41,14 @@ from ._lattice import (
     split,
     spread,
 )
-from ._place import bracket_step, final_roots, newton_step, outward_normals, secant_points
+from ._place import (
+    bracket_step,
+    edge_starts,
+    final_roots,
+    newton_step,
+    outward_normals,
+    secant_points,
+)
 from .export import Mesh
 
 #: what the arguments may be
@@ -107,10 +114,10 @@ def polygonize(
               bar_format="{desc}: {n_fmt}/{total_fmt} steps |{bar}| {elapsed}") as bar:
         boxes = _cull(prog, grid, budget)
         bar.update()
-        values, block_origins, cell_start, cells = _sample(prog, grid, boxes)
+        values, block_origins, box_start, boxes = _sample(prog, grid, boxes)
         bar.update()
         keys, f0, f1, centres, tris = block_triangles(
-            values, block_origins, cell_start, cells, grid.dims, ISO
+            values, block_origins, box_start, boxes, FINE, grid.dims, ISO
         )
         del values
         bar.update()
@@ -196,9 +203,9 @@ class _Grid:
 
     def edge_points(self, keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Lower lattice point (V, 3) and axis (V,) of each lattice-edge key."""
-        axis = keys % 3
-        idx = np.stack(np.unravel_index(keys // 3, tuple(self.dims)), axis=1)
-        return self.origin + idx * self.h, axis
+        p0, axis = np.empty((len(keys), 3)), np.empty(len(keys), dtype=np.int64)
+        parallel_for(edge_starts, len(keys), keys, self.dims, self.origin, self.h, p0, axis)
+        return p0, axis
 
 
 def _cull(prog, grid: _Grid, budget: int):
@@ -276,8 +283,9 @@ def _check_budget(triangles: float, boxes: int, h: float, budget: int,
 
 def _sample(prog, grid: _Grid, boxes):
     """Lattice values (B, BLOCK+1, BLOCK+1, BLOCK+1) of the blocks holding kept boxes, the
-    blocks' origins (B, 3), and the cells to contour: local coordinates (C, 3), those of block
-    q at ``cell_start[q]:cell_start[q + 1]`` (returned as ``values, origins, cell_start, cells``).
+    blocks' origins (B, 3), and the boxes whose cells to contour: local coordinates (A, 3),
+    those of block q at ``box_start[q]:box_start[q + 1]`` (returned as ``values, origins,
+    box_start, boxes``).
 
     1. Every kept box is sampled at its corners and centre (a body-centred lattice of spacing
        ``FINE``: any part of the solid or of its complement that holds a ball of diameter
@@ -330,14 +338,11 @@ def _sample(prog, grid: _Grid, boxes):
             FINE,
             ISO,
         )
-    # the cells of the boxes sampled whole, by block: no other cell can cross the surface
+    # the boxes sampled whole, by block: no other cell can cross the surface
     boxes_by_block = np.flatnonzero(active)
     boxes_by_block = boxes_by_block[np.argsort(kept_slot[boxes_by_block], kind="stable")]
     box_start = np.searchsorted(kept_slot[boxes_by_block], np.arange(len(codes) + 1))
-    cells = (
-        kept_loc[boxes_by_block][:, None, :] + whole[None, :, :][:, np.all(whole < FINE, axis=1)]
-    ).reshape(-1, 3)
-    return values, block_origins, box_start * FINE**3, cells
+    return values, block_origins, box_start, kept_loc[boxes_by_block]
 
 
 def _block_code(origins: np.ndarray, blocks: np.ndarray) -> np.ndarray:
