@@ -234,17 +234,25 @@ def _box_geometry(start, stop, origins, size, grid_origin, h, limit, lo, hi, cen
 
 
 @nb.njit(cache=True)
-def split(origins, size, limit):
-    """The eight children of ``size`` cells of each box whose origin lies before ``limit``, and
-    the index of each child's parent."""
-    out = np.empty((origins.shape[0] * 8, 3), dtype=np.int64)
-    parent = np.empty(origins.shape[0] * 8, dtype=np.int64)
+def split(origins, size, step, limit):
+    """The ``step``^3 descendants of ``size`` cells of each box (of ``size * step`` cells,
+    ``step`` a power of 2) whose origin lies before ``limit``, in octree order (the base-8
+    digits of a descendant's number pick the octant at each level, x first), and the index of
+    each one's parent."""
+    out = np.empty((origins.shape[0] * step**3, 3), dtype=np.int64)
+    parent = np.empty(origins.shape[0] * step**3, dtype=np.int64)
     n = 0
     for q in range(origins.shape[0]):
-        for c in range(8):
-            i = origins[q, 0] + size * (c & 1)
-            j = origins[q, 1] + size * ((c >> 1) & 1)
-            k = origins[q, 2] + size * (c >> 2)
+        for c in range(step**3):
+            i, j, k = origins[q, 0], origins[q, 1], origins[q, 2]
+            span, digit = size * step, step**3
+            while digit > 1:
+                digit //= 8
+                span //= 2
+                octant = c // digit % 8
+                i += span * (octant & 1)
+                j += span * ((octant >> 1) & 1)
+                k += span * (octant >> 2)
             if i < limit[0] and j < limit[1] and k < limit[2]:
                 out[n, 0], out[n, 1], out[n, 2] = i, j, k
                 parent[n] = q

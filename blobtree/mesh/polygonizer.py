@@ -222,11 +222,6 @@ def _cull(prog, grid: _Grid, budget: int):
     limit = grid.dims - 1
     parent_lip = None
     while True:
-        if FINE < size < BOUND_MIN:  # no bound of their own: on to their children
-            size //= 2
-            origins, parent = split(origins, size, limit)
-            parent_lip = parent_lip[parent]
-            continue
         lo, hi, centre, half_diag = box_geometry(origins, size, grid.origin, grid.h, limit)
         # the smallest boxes reuse their ancestor's bound: it holds over them too.  (The field
         # at the centre is unclipped, as L bounds it.)
@@ -246,8 +241,10 @@ def _cull(prog, grid: _Grid, budget: int):
             _check_budget(_estimate_triangles(prog, grid, origins), len(origins), grid.h, budget)
         if size == FINE:
             return origins, grid.clip_values(centre[keep], kept_value)
-        size //= 2
-        origins, parent = split(origins, size, limit)
+        # boxes below BOUND_MIN get no bound of their own: straight on to the finest
+        step = 2 if size > BOUND_MIN else size // FINE
+        size //= step
+        origins, parent = split(origins, size, step, limit)
         parent_lip = kept_lip[parent]
 
 
