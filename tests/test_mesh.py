@@ -334,6 +334,20 @@ def small_mesh():
     return polygonize(tree, resolution=24)
 
 
+def test_stl_records_follow_the_format(tmp_path):
+    """Binary STL read back by the format's layout: 80-byte header, uint32 count, then per
+    triangle 12 little-endian floats (unit normal, corners) and a zero uint16; a degenerate
+    triangle's normal is zero."""
+    v = np.array([[0, 0, 0], [2, 0, 0], [0, 3, 0], [1, 0, 0]], float)
+    faces = np.array([[0, 1, 2], [0, 2, 1], [0, 1, 3]])  # the last has no area
+    data = Mesh(v, faces, v, v).save(tmp_path / "t.stl").read_bytes()
+    assert len(data) == 84 + 50 * 3 and int.from_bytes(data[80:84], "little") == 3
+    rec = np.frombuffer(data[84:], dtype=[("f", "<f4", 12), ("a", "<u2")])
+    assert np.array_equal(rec["f"][:, :3], [[0, 0, 1], [0, 0, -1], [0, 0, 0]])
+    assert np.array_equal(rec["f"][:, 3:].reshape(3, 3, 3), v[faces])
+    assert np.all(rec["a"] == 0)
+
+
 @pytest.mark.parametrize("ext", [".ply", ".obj", ".stl", ".glb"])
 def test_formats_round_trip(small_mesh, tmp_path, ext):
     path = small_mesh.save(tmp_path / f"m{ext}")
