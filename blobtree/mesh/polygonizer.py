@@ -232,20 +232,21 @@ def _cull(prog, grid: _Grid, budget: int):
             fc, lip, below, above = prog.bound_at(lo, hi, centre).T
         keep = keep_boxes(lip, fc, below, above, half_diag, lo, hi, grid.lo, grid.hi, grid.clip,
                           ISO)
-        origins, kept_value, kept_lip = origins[keep], fc[keep], lip[keep]
+        origins = origins[keep]
         if size > FINE:
             triangles = len(origins) * size * size * TRIANGLES_PER_CELL
             _check_budget(triangles, 0, grid.h, budget, slack=COARSE_SLACK)
         elif len(origins) * (BYTES_PER_BOX + MAX_TRIANGLES_PER_BOX * BYTES_PER_TRIANGLE) > budget:
             # (sampled only when the most the boxes can give might not fit)
             _check_budget(_estimate_triangles(prog, grid, origins), len(origins), grid.h, budget)
-        if size == FINE:
-            return origins, grid.clip_values(centre[keep], kept_value)
+        if size == FINE:  # (the centres' values are the lattice samples there)
+            fc = fc[keep]
+            return origins, grid.clip_values(centre[keep], fc) if grid.clip else fc
         # boxes below BOUND_MIN get no bound of their own: straight on to the finest
         step = 2 if size > BOUND_MIN else size // FINE
         size //= step
         origins, parent = split(origins, size, step, limit)
-        parent_lip = kept_lip[parent]
+        parent_lip = lip[keep][parent]
 
 
 def _estimate_triangles(prog, grid: _Grid, origins: np.ndarray) -> float:
@@ -297,7 +298,8 @@ def _sample(prog, grid: _Grid, boxes):
     """
     kept, kept_value = boxes
     nb = grid.blocks
-    code = _block_code(kept, nb)
+    block, kept_loc = np.divmod(kept, BLOCK)  # each box's block and its place in it
+    code = (block[:, 0] * nb[1] + block[:, 1]) * nb[2] + block[:, 2]
     present = np.zeros(int(np.prod(nb)), dtype=bool)
     present[code] = True
     codes = np.flatnonzero(present)  # the blocks holding kept boxes, in order
@@ -305,7 +307,6 @@ def _sample(prog, grid: _Grid, boxes):
     block_of = np.full(tuple(nb), -1, dtype=np.int64)
     block_of.reshape(-1)[codes] = np.arange(len(codes))
     kept_slot = block_of.reshape(-1)[code]
-    kept_loc = kept - block_origins[kept_slot]
     values, sampled, boxmap = new_store(len(codes), BLOCK, FINE, kept_slot, kept_loc, kept_value)
 
     def sample(box_ids, offsets):
@@ -340,11 +341,6 @@ def _sample(prog, grid: _Grid, boxes):
     boxes_by_block = boxes_by_block[np.argsort(kept_slot[boxes_by_block], kind="stable")]
     box_start = np.searchsorted(kept_slot[boxes_by_block], np.arange(len(codes) + 1))
     return values, block_origins, box_start, kept_loc[boxes_by_block]
-
-
-def _block_code(origins: np.ndarray, blocks: np.ndarray) -> np.ndarray:
-    """Flat index of the block of ``BLOCK`` cells holding each box origin."""
-    return np.ravel_multi_index(tuple((origins // BLOCK).T), tuple(blocks))
 
 
 def _refine(prog, grid: _Grid, p0, axis, f0, f1):
