@@ -170,6 +170,19 @@ def test_is_watertight_refuses_holes_flips_and_extra_faces():
         assert (tm.is_watertight and tm.is_winding_consistent) == expected, name
 
 
+def test_sampling_in_chunks_gives_the_same_mesh(monkeypatch):
+    """The lattice is sampled SAMPLE_CHUNK points at a time (bounded scratch memory): tiny
+    chunks give exactly the mesh of one chunk."""
+    from blobtree.mesh import polygonizer
+
+    tree = bt.Point(radius=2.0) - bt.Point(radius=1.6, center=(0.9, 0.3, 0))
+    whole = polygonize(tree, resolution=40)
+    monkeypatch.setattr(polygonizer, "SAMPLE_CHUNK", 100)
+    chunked = polygonize(tree, resolution=40)
+    np.testing.assert_array_equal(chunked.vertices, whole.vertices)
+    np.testing.assert_array_equal(chunked.faces, whole.faces)
+
+
 def test_difference_with_creases():
     tree = bt.Point(radius=2.0) - bt.Point(radius=1.6, center=(0.9, 0.3, 0))
     assert_spheres(polygonize(tree, resolution=40), 1)

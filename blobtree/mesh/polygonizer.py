@@ -61,6 +61,8 @@ FINE = 2
 #: reuse their ancestor's (at 4 cells a bound costs more than the samples it saves: the Murex
 #: at 512 meshes 6% faster, and whorl126 at 256 2%, with the same mesh)
 BOUND_MIN = 8
+#: lattice points gathered and sampled at a time, at most (about 40 bytes each while sampled)
+SAMPLE_CHUNK = 1 << 20
 #: regula falsi steps per vertex at most (a Newton step on the shading evaluation follows); a
 #: vertex stops early once the secant puts its root within REFINE_TOL of the edge's length
 REFINE_STEPS, REFINE_TOL = 2, 1e-2
@@ -310,10 +312,11 @@ def _sample(prog, grid: _Grid, boxes):
     values, sampled, boxmap = new_store(len(codes), BLOCK, FINE, kept_slot, kept_loc, kept_value)
 
     def sample(box_ids, offsets):
-        flat, points = gather(
-            sampled, box_ids, kept_slot, kept_loc, offsets, block_origins, grid.origin, grid.h
-        )
-        values.reshape(-1)[flat] = grid.field(prog, points)
+        step = max(1, SAMPLE_CHUNK // len(offsets))  # boxes at a time: bounded scratch memory
+        for start in range(0, len(box_ids), step):
+            flat, points = gather(sampled, box_ids[start:start + step], kept_slot, kept_loc,
+                                  offsets, block_origins, grid.origin, grid.h)
+            values.reshape(-1)[flat] = grid.field(prog, points)
 
     corners = np.stack(np.meshgrid(*([[0, FINE]] * 3), indexing="ij"), -1).reshape(-1, 3)
     whole = np.stack(np.meshgrid(*([np.arange(FINE + 1)] * 3), indexing="ij"), -1)
