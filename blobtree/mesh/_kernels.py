@@ -62,7 +62,6 @@ def _face_tables() -> tuple[np.ndarray, np.ndarray]:
 
 
 FACE_CORNERS, FACE_EDGES = _face_tables()
-#: parallel parts per kernel call (each reuses its scratch over its blocks)
 #: axis and lower-corner lattice offset of each of the 12 cell edges
 EDGE_AXIS = np.array([e // 4 for e in range(12)], dtype=np.int64)
 EDGE_OFFSET = np.zeros((12, 3), dtype=np.int64)

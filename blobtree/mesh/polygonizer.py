@@ -59,7 +59,7 @@ BLOCK = 16
 FINE = 2
 #: cells per side of the smallest boxes given a Lipschitz bound of their own; smaller boxes
 #: reuse their ancestor's (at 4 cells a bound costs more than the samples it saves: the Murex
-#: at 512 meshes 6% faster, and whorl126 at 256 2%, with the same mesh)
+#: at 512 meshes 6% faster, whorl126 at 256 about as fast, with the same mesh)
 BOUND_MIN = 8
 #: lattice points gathered and sampled at a time, at most (about 40 bytes each while sampled)
 SAMPLE_CHUNK = 1 << 20
@@ -114,9 +114,9 @@ def polygonize(
     # the steps are uneven (and the first run compiles in the first): no rate, no estimate
     with tqdm(total=4, desc="mesh", disable=not progress, leave=False,
               bar_format="{desc}: {n_fmt}/{total_fmt} steps |{bar}| {elapsed}") as bar:
-        boxes = _cull(prog, grid, budget)
+        culled = _cull(prog, grid, budget)
         bar.update()
-        values, block_origins, box_start, boxes = _sample(prog, grid, boxes)
+        values, block_origins, box_start, boxes = _sample(prog, grid, culled)
         bar.update()
         keys, f0, f1, centres, tris = block_triangles(
             values, block_origins, box_start, boxes, FINE, grid.dims, ISO
@@ -281,11 +281,12 @@ def _check_budget(triangles: float, boxes: int, h: float, budget: int,
             f"{budget / 2**30:.1f} GiB available; use a smaller resolution or larger cell_size")
 
 
-def _sample(prog, grid: _Grid, boxes):
-    """Lattice values (B, BLOCK+1, BLOCK+1, BLOCK+1) of the blocks holding kept boxes, the
-    blocks' origins (B, 3), and the boxes whose cells to contour: local coordinates (A, 3),
-    those of block q at ``box_start[q]:box_start[q + 1]`` (returned as ``values, origins,
-    box_start, boxes``).
+def _sample(prog, grid: _Grid, culled):
+    """From the culled boxes (the finest kept boxes' lattice origins and centre values, as
+    :func:`_cull` returns them): lattice values (B, BLOCK+1, BLOCK+1, BLOCK+1) of the blocks
+    holding kept boxes, the blocks' origins (B, 3), and the boxes whose cells to contour:
+    local coordinates (A, 3), those of block q at ``box_start[q]:box_start[q + 1]`` (returned
+    as ``values, origins, box_start, boxes``).
 
     1. Every kept box is sampled at its corners and centre (a body-centred lattice of spacing
        ``FINE``: any part of the solid or of its complement that holds a ball of diameter
@@ -298,7 +299,7 @@ def _sample(prog, grid: _Grid, boxes):
        so the contour closes.  A piece of surface inside one box that misses all nine samples
        is lost (see docs/meshing.md).
     """
-    kept, kept_value = boxes
+    kept, kept_value = culled
     nb = grid.blocks
     block, kept_loc = np.divmod(kept, BLOCK)  # each box's block and its place in it
     code = (block[:, 0] * nb[1] + block[:, 1]) * nb[2] + block[:, 2]
