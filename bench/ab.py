@@ -4,12 +4,17 @@ round.  Timings of one process alone here drift by 10-20% between runs, more tha
 worth measuring; paired runs agree within a few percent.
 
     python bench/ab.py BASE [NEW] [--model murex] [--size 256] [--rounds 3] [--task mesh]
+                       [--threads 1|all] [--best 1]
 
 BASE and NEW are git revisions (NEW defaults to the working tree); each is checked out into a
 temporary worktree with its own numba cache, compiled once before timing.  Prints each round's
 CPU seconds (one thread each) and NEW / BASE: for ``--task render`` (the default) a render
 without and with shadows; for ``--task mesh`` ``polygonize`` at resolution ``--size`` and the
 field at that mesh's vertices (one batch).
+
+``--threads all`` measures what one thread cannot see (parallel overheads): the two checkouts
+then run one after the other, alternating, each on all cores, and each round prints wall
+seconds (the best of ``--best`` runs in one process) instead of CPU seconds.
 """
 
 from __future__ import annotations
@@ -27,7 +32,10 @@ ROOT = Path(__file__).resolve().parents[1]
 #: Run in each checkout: warm up (compile or load the kernels), then time the two measures.
 PRELUDE = """
 import os, sys, time
-os.sched_setaffinity(0, {int(sys.argv[1])})
+if int(sys.argv[1]) >= 0:
+    os.sched_setaffinity(0, {int(sys.argv[1])})
+clock = time.process_time if int(sys.argv[1]) >= 0 else time.perf_counter
+best = int(sys.argv[4])
 from blobtree.cli.scenes import resolve_scene
 """
 WORKLOADS = {"render": PRELUDE + """
@@ -40,9 +48,12 @@ cam = seen_camera(tree, prog, size, size)
 render(prog, 32, 32, camera=cam)
 out = []
 for shadows in (False, True):
-    start = time.process_time()
-    render(prog, size, size, camera=cam, shadows=shadows)
-    out.append(time.process_time() - start)
+    times = []
+    for _ in range(best):
+        start = clock()
+        render(prog, size, size, camera=cam, shadows=shadows)
+        times.append(clock() - start)
+    out.append(min(times))
 print(*out)
 """, "mesh": PRELUDE + """
 import numpy as np
@@ -51,12 +62,15 @@ prog = resolve_scene(sys.argv[2]).program()
 size = int(sys.argv[3])
 polygonize(prog, 32)
 prog.evaluate(np.repeat([0.5 * (prog.bounds[0] + prog.bounds[1])], 30000, axis=0))
-start = time.process_time()
-mesh = polygonize(prog, size)
-out = [time.process_time() - start]
-start = time.process_time()
-prog.field(mesh.vertices)
-print(out[0], time.process_time() - start)
+out = [[], []]
+for _ in range(best):
+    start = clock()
+    mesh = polygonize(prog, size)
+    out[0].append(clock() - start)
+    start = clock()
+    prog.field(mesh.vertices)
+    out[1].append(clock() - start)
+print(min(out[0]), min(out[1]))
 """}
 #: What each task's two numbers are.
 MEASURES = {"render": ("no shadows", "shadows"), "mesh": ("polygonize", "field at vertices")}
@@ -73,21 +87,32 @@ def checkout(rev: str, into: Path) -> Path:
 
 
 def run(dirs: list[Path], caches: list[Path], tmp: Path, task: str, model: str,
-        core_shift: int, size: int) -> list[list[float]]:
-    """Both checkouts' CPU seconds (the task's two measures), run at the same time, checkout k
-    pinned to core (k + core_shift) % 2."""
-    procs = [subprocess.Popen(
-        [sys.executable, "-c", WORKLOADS[task], str((k + core_shift) % 2), model, str(size)],
-        cwd=tmp, stdout=subprocess.PIPE, text=True,
-        env={**os.environ, "PYTHONPATH": str(d), "NUMBA_CACHE_DIR": str(c),
-             "NUMBA_NUM_THREADS": "1"})
-        for k, (d, c) in enumerate(zip(dirs, caches, strict=True))]
-    times = []
-    for p in procs:
+        core_shift: int, size: int, alone: bool, best: int) -> list[list[float]]:
+    """Both checkouts' seconds (the task's two measures): CPU seconds of runs at the same time,
+    checkout k pinned to core (k + core_shift) % 2; with ``alone``, wall seconds of runs one
+    after the other on all cores, the first one (k + core_shift) % 2."""
+    def start(k: int) -> subprocess.Popen:
+        d, c = dirs[k], caches[k]
+        env = {**os.environ, "PYTHONPATH": str(d), "NUMBA_CACHE_DIR": str(c)}
+        if not alone:
+            env["NUMBA_NUM_THREADS"] = "1"
+        core = -1 if alone else (k + core_shift) % 2
+        return subprocess.Popen(
+            [sys.executable, "-c", WORKLOADS[task], str(core), model, str(size), str(best)],
+            cwd=tmp, stdout=subprocess.PIPE, text=True, env=env)
+
+    def result(p: subprocess.Popen) -> list[float]:
         out, _ = p.communicate()
         if p.returncode:
             sys.exit(f"a {task} run failed (exit {p.returncode})")
-        times.append([float(v) for v in out.split()])
+        return [float(v) for v in out.split()]
+
+    if not alone:
+        procs = [start(k) for k in range(2)]
+        return [result(p) for p in procs]
+    times: list[list[float]] = [[], []]
+    for k in ((0, 1) if core_shift % 2 == 0 else (1, 0)):
+        times[k] = result(start(k))
     return times
 
 
@@ -99,10 +124,15 @@ def main() -> None:
     ap.add_argument("--size", type=int, default=256)
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--task", choices=sorted(WORKLOADS), default="render")
+    ap.add_argument("--threads", choices=("1", "all"), default="1",
+                    help="1: both at once, one core each (CPU seconds); all: one after the "
+                         "other on all cores (wall seconds)")
+    ap.add_argument("--best", type=int, default=1, help="runs per round, the best one counted")
     args = ap.parse_args()
-    if args.size < 32 or args.rounds < 1:
-        ap.error(f"--size must be at least 32 (got {args.size}), --rounds at least 1 "
-                 f"(got {args.rounds})")
+    if args.size < 32 or args.rounds < 1 or args.best < 1:
+        ap.error(f"--size must be at least 32 (got {args.size}), --rounds and --best at least "
+                 f"1 (got {args.rounds}, {args.best})")
+    alone = args.threads == "all"
     if len(os.sched_getaffinity(0)) < 2:
         sys.exit("ab.py needs two cores")
     tmp = Path(tempfile.mkdtemp(prefix="blobtree-ab-"))
@@ -110,13 +140,16 @@ def main() -> None:
     try:
         dirs = [checkout(args.base, tmp), checkout(args.new, tmp)]
         caches = [tmp / f"cache{k}" for k in range(2)]
-        run(dirs, caches, tmp, args.task, args.model, 0, 32)  # compile both, untimed
+        run(dirs, caches, tmp, args.task, args.model, 0, 32, alone, 1)  # compile, untimed
         ratios = []
         names = MEASURES[args.task]
-        print(f"{args.task} {args.model} at {args.size}, one thread each, CPU seconds "
+        how = ("all threads, one after the other, wall seconds" if alone
+               else "one thread each, CPU seconds")
+        print(f"{args.task} {args.model} at {args.size}, {how}, best of {args.best} "
               f"({names[0]}, {names[1]})")
         for r in range(args.rounds):
-            (a0, a1), (b0, b1) = run(dirs, caches, tmp, args.task, args.model, r, args.size)
+            (a0, a1), (b0, b1) = run(dirs, caches, tmp, args.task, args.model, r, args.size,
+                                     alone, args.best)
             ratios.append((b0 / a0, b1 / a1))
             print(f"round {r + 1}: base {a0:.2f} {a1:.2f}   new {b0:.2f} {b1:.2f}   "
                   f"new/base {b0 / a0:.3f} {b1 / a1:.3f}")
