@@ -90,7 +90,7 @@ def run(dirs: list[Path], caches: list[Path], tmp: Path, task: str, model: str,
         core_shift: int, size: int, alone: bool, best: int) -> list[list[float]]:
     """Both checkouts' seconds (the task's two measures): CPU seconds of runs at the same time,
     checkout k pinned to core (k + core_shift) % 2; with ``alone``, wall seconds of runs one
-    after the other on all cores, the first one (k + core_shift) % 2."""
+    after the other on all cores, checkout core_shift % 2 first."""
     def start(k: int) -> subprocess.Popen:
         d, c = dirs[k], caches[k]
         env = {**os.environ, "PYTHONPATH": str(d), "NUMBA_CACHE_DIR": str(c)}
