@@ -106,7 +106,8 @@ def _stl_bytes(mesh: Mesh) -> np.ndarray:
     return data
 
 
-#: format -> encoder of the formats written here (no trimesh needed)
+#: format -> encoder of the formats written here (no trimesh needed); each returns the file's
+#: bytes (``bytes`` or a uint8 array, both written as they are)
 ENCODERS = {"ply": _ply_bytes, "stl": _stl_bytes}
 
 
