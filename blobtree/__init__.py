@@ -7,6 +7,7 @@ tracer (``mesh``, ``render``), then scale-out (``distributed``), this API and th
 """
 
 from . import engine, models, textures
+from .allocator import pin_thresholds
 from .api import polygonize, preview, render
 from .engine import Program, compile_tree
 from .io import load, save
@@ -16,6 +17,8 @@ from .nodes import __all__ as _node_names
 from .render import Camera, Light, RenderSettings, render_tile, save_image
 
 __version__ = "0.2.0"
+
+pin_thresholds()  # large arrays reused, not fresh pages each time (blobtree/allocator.py)
 
 __all__ = [
     *_node_names, "Camera", "Light", "Mesh", "Program", "RenderSettings", "compile_tree",
