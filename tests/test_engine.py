@@ -179,6 +179,28 @@ def test_cell_sorted_blocks_and_order(monkeypatch):
     assert np.count_nonzero(f) > 1000 and np.count_nonzero(f == 0.0) > 1000
 
 
+@examples(0.25)
+@given(trees(), st.integers(0, 2**31))
+def test_points_grouped_by_region_equal_reference(tree, seed):
+    """Points grouped by boxes of their own (the mesher's blocks) run each box's specialised
+    program, with no sorting (Program.regions, Program.field_grouped): still exact."""
+    prog = tree.program()
+    P = sample_points(tree, 3000, seed, grow=0.2)
+    rng = np.random.default_rng(seed)
+    lo, hi = P.min(axis=0), P.max(axis=0)
+    # boxes on a random lattice, some holding no point, and the points grouped by box
+    dims = rng.integers(1, 5, size=3)
+    size = np.maximum(hi - lo, 1e-9) / dims
+    cell = np.minimum(((P - lo) / size).astype(np.int64), dims - 1)
+    code = (cell[:, 0] * dims[1] + cell[:, 1]) * dims[2] + cell[:, 2]
+    index = np.stack(np.meshgrid(*(np.arange(n) for n in dims), indexing="ij"), -1)
+    box_lo = lo + index.reshape(-1, 3) * size
+    order = np.argsort(code, kind="stable")
+    first = np.searchsorted(code[order], np.arange(len(box_lo) + 1))
+    f = prog.field_grouped(prog.regions(box_lo, box_lo + size), P[order], first)
+    np.testing.assert_allclose(f, tree.reference(P[order])[0], rtol=1e-9, atol=1e-12)
+
+
 def test_specialised_difference_keeps_its_cap():
     """A difference is min(f_0, 1 - f_1): where the subtrahend is specialised away the result is
     still capped at 1 when the first child's blend exceeds 1 (found by hypothesis)."""

@@ -46,7 +46,7 @@ from .interp import (
     push_primitive,
     push_zero,
 )
-from .specialize import Grid, cell_of
+from .specialize import Grid, Regions, cell_of
 
 #: Points per batch (the length of a value-stack row).
 SUB = 64
@@ -289,9 +289,8 @@ def eval_sorted(grid: Grid, params: np.ndarray, depth: int, P: np.ndarray, out_f
     gradients and colours), through ``grid`` (program.Grid): blocks of points are partitioned
     by cell in parallel parts, evaluated cell by cell, and the results put back in the points'
     order."""
-    start, gc, gb = grid.arrays
     lo, size, dims = grid.frame
-    ncell = len(start) - 1
+    ncell = len(grid.start) - 1
     nparts = threads()
     counts = np.empty((nparts, ncell), dtype=np.int64)
     first = np.zeros(ncell + 1, dtype=np.int64)
@@ -307,7 +306,16 @@ def eval_sorted(grid: Grid, params: np.ndarray, depth: int, P: np.ndarray, out_f
         offsets = first[:-1] + np.cumsum(counts, axis=0) - counts  # each part's place
         k = int(first[-1])
         parallel_for(_bucket_scatter, nparts, Q, cell, offsets, xyz, pos, parts=nparts)
-        parallel_for(_eval_runs, (k + SLAB - 1) // SLAB, start, gc, gb, params, first, xyz[:k],
-                     depth, SLAB, vals, grain=1)
+        eval_grouped(grid, params, depth, xyz[:k], first, vals)
         parallel_for(_unsort, len(Q), vals, pos, out_f[a:a + BLOCK], out_g[a:a + BLOCK],
                      out_c[a:a + BLOCK])
+
+
+def eval_grouped(regions: Regions, params: np.ndarray, depth: int, xyz: np.ndarray,
+                 first: np.ndarray, vals: np.ndarray) -> None:
+    """Values of the (M, 3) points xyz, grouped by region (xyz[first[r]:first[r + 1]] lie in
+    region r), into vals (M, 1) (the field) or (M, 7) (with gradients and colours), each group
+    run by its region's program in slabs across the threads."""
+    start, gc, gb = regions.arrays
+    parallel_for(_eval_runs, (len(xyz) + SLAB - 1) // SLAB, start, gc, gb, params, first, xyz,
+                 depth, SLAB, vals, grain=1)

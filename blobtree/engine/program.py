@@ -46,7 +46,7 @@ from .dispatch import (
     STACK,
     opcode,
 )
-from .specialize import Grid
+from .specialize import Grid, Regions
 
 #: Batches at least this large run through the grid of specialised programs.
 GRID_MIN_POINTS = 20_000
@@ -121,12 +121,27 @@ class Program:
                 np.int64)
             size = ext / dims
             pad = 1e-9 * float(ext.max())
-            start = S.grid_starts(self.code, self.boxes, self.lips, lo, size, dims, pad)
+            rlo, rhi = S.cell_boxes(lo, size, dims, pad)
+            start = S.region_starts(self.code, self.boxes, self.lips, rlo, rhi)
             if start[-1] <= GRID_MAX_INSTRUCTIONS or cells <= GRID_MIN_CELLS:
-                gc, gb = S.build_grid(self.code, self.boxes, self.lips, lo, size, dims, pad,
-                                      start)
-                return Grid(start, gc, gb, lo.copy(), size, dims)
+                cells = S.specialize_regions(self.code, self.boxes, self.lips, rlo, rhi, start)
+                return Grid(*cells.arrays, lo.copy(), size, dims)
             cells //= 4
+
+    def regions(self, lo: np.ndarray, hi: np.ndarray) -> Regions:
+        """The program specialised to each box (lo[r], hi[r]) ((R, 3) each), for
+        :meth:`field_grouped`."""
+        pad = 1e-9 * float(np.max(np.asarray(self.bounds[1]) - np.asarray(self.bounds[0])))
+        return S.specialize_regions(self.code, self.boxes, self.lips, lo - pad, hi + pad)
+
+    def field_grouped(self, regions: Regions, P: np.ndarray, first: np.ndarray) -> np.ndarray:
+        """Field values (N,) of (N, 3) points grouped by region: P[first[r]:first[r + 1]] all
+        lie in region r of ``regions`` (from :meth:`regions`; ``first`` has R + 1 entries).
+        Each group runs its region's program, with no sorting."""
+        f = np.empty(len(P))
+        B.eval_grouped(regions, self.params, self.depth, np.ascontiguousarray(P, np.float64),
+                       np.asarray(first, dtype=np.int64), f[:, None])
+        return f
 
     def field(self, P: np.ndarray) -> np.ndarray:
         """Field values (N,) at (N, 3) points."""

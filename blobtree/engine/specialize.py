@@ -10,8 +10,9 @@ one child becomes that child; box tests that contain the whole region are droppe
 are shared with the full program.  Points in the region evaluate exactly as with the full
 program.
 
-``build_grid`` specialises the program to every cell of a grid over the tree's bounds (done
-once per program); ``batch.eval_sorted`` runs each point through its cell's short program: for
+``specialize_regions`` specialises the program to each of a list of boxes: the cells of a grid
+over the tree's bounds (``Program.grid``, built once per program), or a mesher's blocks
+(``Program.regions``); ``batch.eval_sorted`` runs each point through its cell's short program: for
 the 126-blob whorl a point then meets ~8 instructions instead of ~26.
 """
 
@@ -175,20 +176,28 @@ def specialize(code, boxes, lips, lo, hi, oc, ob, ol, work):
 
 
 @dataclass
-class Grid:
-    """Per-cell specialised programs (see specialize.py): cell c runs rows start[c]:start[c+1]."""
+class Regions:
+    """The program specialised to each of a list of boxes: region r runs rows
+    start[r]:start[r + 1] of (code, boxes), skip targets relative to its start."""
 
     start: np.ndarray
     code: np.ndarray
     boxes: np.ndarray
-    lo: np.ndarray
-    size: np.ndarray
-    dims: np.ndarray
 
     @property
     def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(start, code, boxes) for ``batch.eval_sorted``."""
+        """(start, code, boxes), as the batch kernels take them."""
         return self.start, self.code, self.boxes
+
+
+@dataclass
+class Grid(Regions):
+    """Regions that are the cells of a grid (lo, size, dims), cell (i, j, k) being region
+    (i * dims[1] + j) * dims[2] + k: ``batch.eval_sorted`` finds a point's cell itself."""
+
+    lo: np.ndarray
+    size: np.ndarray
+    dims: np.ndarray
 
     @property
     def frame(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -196,60 +205,58 @@ class Grid:
         return self.lo, self.size, self.dims
 
 
-@kernel
-def _cell_box(c, lo, size, dims, pad, clo, chi):
-    r = c
-    for ax in range(2, -1, -1):
-        k = r % dims[ax]
-        r //= dims[ax]
-        clo[ax] = lo[ax] + k * size[ax] - pad
-        chi[ax] = lo[ax] + (k + 1) * size[ax] + pad
+def cell_boxes(lo, size, dims, pad) -> tuple[np.ndarray, np.ndarray]:
+    """Corners (C, 3) of every cell of a grid, in region order, grown by ``pad``."""
+    index = np.stack(np.meshgrid(*(np.arange(n) for n in dims), indexing="ij"), -1)
+    index = index.reshape(-1, 3)
+    return lo + index * size - pad, lo + (index + 1) * size + pad
 
 
 @kernel(nrt=True, nogil=True)
-def _grid_part(start, stop, code, boxes, lips, lo, size, dims, pad, lengths, gc, gb, fill):
-    """Specialise to cells start..stop - 1: record the lengths (``fill`` False), or copy the
-    programs to rows lengths[c]:lengths[c] + m (``fill`` True; lengths then holds the starts)."""
+def _specialize_part(start, stop, code, boxes, lips, rlo, rhi, lengths, gc, gb, fill):
+    """Specialise to regions start..stop - 1 (boxes rlo, rhi): record the lengths (``fill``
+    False), or copy the programs to rows lengths[r]:lengths[r] + m (``fill`` True; lengths then
+    holds the starts)."""
     n = code.shape[0]
     oc = np.empty((n, 4), dtype=np.int64)  # scratch: specialize may write past its length
     ob = np.empty((n, 6))
     ol = np.empty(n)
-    clo = np.empty(3)
-    chi = np.empty(3)
     work = specialize_work(code)
-    for c in range(start, stop):
-        _cell_box(c, lo, size, dims, pad, clo, chi)
-        m = specialize(code, boxes, lips, clo, chi, oc, ob, ol, work)
+    for r in range(start, stop):
+        m = specialize(code, boxes, lips, rlo[r], rhi[r], oc, ob, ol, work)
         if not fill:
-            lengths[c + 1] = m
+            lengths[r + 1] = m
             continue
-        a = lengths[c]
-        for r in range(m):
+        a = lengths[r]
+        for i in range(m):
             for q in range(4):
-                gc[a + r, q] = oc[r, q]
+                gc[a + i, q] = oc[i, q]
             for q in range(6):
-                gb[a + r, q] = ob[r, q]
+                gb[a + i, q] = ob[i, q]
 
 
-def grid_starts(code, boxes, lips, lo, size, dims, pad) -> np.ndarray:
-    """Where each cell's specialised program would start in the grid's rows (ncell + 1; the
-    last entry is the grid's length): the counting pass of :func:`build_grid`, cheap enough to
-    try grids of several sizes."""
-    lengths = np.zeros(int(np.prod(dims)) + 1, dtype=np.int64)
-    parallel_for(_grid_part, len(lengths) - 1, code, boxes, lips, lo, size, dims, pad, lengths,
+def region_starts(code, boxes, lips, rlo, rhi) -> np.ndarray:
+    """Where each region's specialised program would start (R + 1 entries; the last is the
+    total length): the counting pass of :func:`specialize_regions`, cheap enough to try grids
+    of several sizes."""
+    lengths = np.zeros(len(rlo) + 1, dtype=np.int64)
+    parallel_for(_specialize_part, len(rlo), code, boxes, lips, rlo, rhi, lengths,
                  np.empty((0, 4), dtype=np.int64), np.empty((0, 6)), False)
     return np.cumsum(lengths)
 
 
-def build_grid(code, boxes, lips, lo, size, dims, pad, start):
-    """Specialise the program to every cell of a grid: (code, boxes), cell c's program being
-    rows start[c]:start[c + 1] (``start`` from :func:`grid_starts`; skip targets relative to
-    the cell's start).  (Batch evaluation reads no Lipschitz bounds, so the cells keep none.)"""
+def specialize_regions(code, boxes, lips, rlo, rhi, start=None) -> Regions:
+    """The program specialised to each box (rlo[r], rhi[r]) ((R, 3) each; ``start`` from
+    :func:`region_starts` if already counted).  (Batch evaluation reads no Lipschitz bounds,
+    so the regions keep none.)"""
+    rlo = np.ascontiguousarray(rlo, dtype=np.float64)
+    rhi = np.ascontiguousarray(rhi, dtype=np.float64)
+    if start is None:
+        start = region_starts(code, boxes, lips, rlo, rhi)
     total = int(start[-1])
     gc, gb = np.empty((total, 4), dtype=np.int64), np.empty((total, 6))
-    parallel_for(_grid_part, len(start) - 1, code, boxes, lips, lo, size, dims, pad, start, gc,
-                 gb, True)
-    return gc, gb
+    parallel_for(_specialize_part, len(rlo), code, boxes, lips, rlo, rhi, start, gc, gb, True)
+    return Regions(start, gc, gb)
 
 
 @kernel

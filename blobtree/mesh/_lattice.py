@@ -21,7 +21,7 @@ def new_store(nblocks, block, fine, kept_slot, kept_loc, kept_value):
     m = block + 1
     s = block // fine
     values = np.empty((nblocks, m, m, m))
-    sampled = np.empty((nblocks, m, m, m), dtype=np.bool_)
+    sampled = np.empty((nblocks, m, m, m), dtype=np.uint8)  # 0 no, 1 yes (2: see gather)
     boxmap = np.empty((nblocks, s, s, s), dtype=np.int64)
     parallel_for(_clear_blocks, nblocks, sampled, boxmap)
     parallel_for(_store_centres, len(kept_slot), fine, kept_slot, kept_loc, kept_value, values,
@@ -33,7 +33,7 @@ def new_store(nblocks, block, fine, kept_slot, kept_loc, kept_value):
 def _clear_blocks(start, stop, sampled, boxmap):
     """Blocks start..stop - 1: nothing sampled, no kept box."""
     for b in range(start, stop):
-        sampled[b] = False
+        sampled[b] = 0
         boxmap[b] = -1
 
 
@@ -46,33 +46,74 @@ def _store_centres(start, stop, fine, kept_slot, kept_loc, kept_value, values, s
         i, j, k = kept_loc[q, 0], kept_loc[q, 1], kept_loc[q, 2]
         boxmap[b, i // fine, j // fine, k // fine] = q
         values[b, i + half, j + half, k + half] = kept_value[q]
-        sampled[b, i + half, j + half, k + half] = True
+        sampled[b, i + half, j + half, k + half] = 1
 
 
-@nb.njit(cache=True)
 def gather(sampled, boxes, kept_slot, kept_loc, offsets, block_origins, grid_origin, h):
-    """Points of the given kept boxes at ``offsets`` (P, 3) not sampled yet, each once: their
-    flat indices into the store (S,) and positions (S, 3).  Marks them sampled (the caller
-    stores their values)."""
+    """Points of the kept boxes ``boxes`` at ``offsets`` (P, 3) not sampled yet, each once,
+    grouped by block: their flat indices into the store (S,), positions (S, 3), and where each
+    block's points start (B + 1: block b's at first[b]:first[b + 1]).  ``boxes`` must come
+    grouped by block (``kept_slot[boxes]`` never decreasing).  Marks the points sampled (the
+    caller stores their values).  Blocks are gathered in parallel: each owns its points."""
+    counts = np.zeros(sampled.shape[0] + 1, dtype=np.int64)
+    slots = kept_slot[boxes]
+    group = np.r_[np.flatnonzero(np.diff(slots, prepend=slots[:1] - 1)), len(boxes)]
+    groups = len(group) - 1
+    parallel_for(_mark_new, groups, sampled, boxes, group, kept_slot, kept_loc, offsets, counts)
+    first = np.cumsum(counts)
+    flat, coords = np.empty(first[-1], dtype=np.int64), np.empty((first[-1], 3))
+    parallel_for(_emit_new, groups, sampled, boxes, group, kept_slot, kept_loc, offsets,
+                 block_origins, grid_origin, h, first, flat, coords)
+    return flat, coords, first
+
+
+@nb.njit(cache=True, nogil=True)
+def _mark_new(start, stop, sampled, boxes, group, kept_slot, kept_loc, offsets, counts):
+    """Groups start..stop - 1 of ``boxes`` (one block each): mark their points not sampled yet
+    as pending (2), counting them into counts[block + 1]."""
+    for g in range(start, stop):
+        b = kept_slot[boxes[group[g]]]
+        n = 0
+        for q in boxes[group[g]:group[g + 1]]:
+            for p in range(offsets.shape[0]):
+                i = kept_loc[q, 0] + offsets[p, 0]
+                j = kept_loc[q, 1] + offsets[p, 1]
+                k = kept_loc[q, 2] + offsets[p, 2]
+                if sampled[b, i, j, k] == 0:
+                    sampled[b, i, j, k] = 2
+                    n += 1
+        counts[b + 1] = n
+
+
+@nb.njit(cache=True, nogil=True)
+def _emit_new(start, stop, sampled, boxes, group, kept_slot, kept_loc, offsets, block_origins,
+              grid_origin, h, first, flat, coords):
+    """Groups start..stop - 1: each pending point, marked sampled (1), at its block's place in
+    ``flat`` and ``coords``, in the order :func:`_mark_new` met them."""
     m = sampled.shape[1]
-    flat = np.empty(boxes.shape[0] * offsets.shape[0], dtype=np.int64)
-    coords = np.empty((flat.shape[0], 3))
-    n = 0
-    for q in boxes:
-        b = kept_slot[q]
-        for p in range(offsets.shape[0]):
-            i = kept_loc[q, 0] + offsets[p, 0]
-            j = kept_loc[q, 1] + offsets[p, 1]
-            k = kept_loc[q, 2] + offsets[p, 2]
-            if sampled[b, i, j, k]:
-                continue
-            sampled[b, i, j, k] = True
-            flat[n] = ((b * m + i) * m + j) * m + k
-            coords[n, 0] = grid_origin[0] + (block_origins[b, 0] + i) * h
-            coords[n, 1] = grid_origin[1] + (block_origins[b, 1] + j) * h
-            coords[n, 2] = grid_origin[2] + (block_origins[b, 2] + k) * h
-            n += 1
-    return flat[:n], coords[:n]
+    for g in range(start, stop):
+        b = kept_slot[boxes[group[g]]]
+        n = first[b]
+        for q in boxes[group[g]:group[g + 1]]:
+            for p in range(offsets.shape[0]):
+                i = kept_loc[q, 0] + offsets[p, 0]
+                j = kept_loc[q, 1] + offsets[p, 1]
+                k = kept_loc[q, 2] + offsets[p, 2]
+                if sampled[b, i, j, k] != 2:
+                    continue
+                sampled[b, i, j, k] = 1
+                flat[n] = ((b * m + i) * m + j) * m + k
+                coords[n, 0] = grid_origin[0] + (block_origins[b, 0] + i) * h
+                coords[n, 1] = grid_origin[1] + (block_origins[b, 1] + j) * h
+                coords[n, 2] = grid_origin[2] + (block_origins[b, 2] + k) * h
+                n += 1
+
+
+@nb.njit(cache=True, nogil=True)
+def store(start, stop, flat, f, values):
+    """values (flat view) at ``flat`` start..stop - 1 from f."""
+    for n in range(start, stop):
+        values[flat[n]] = f[n]
 
 
 @nb.njit(cache=True)
@@ -197,15 +238,14 @@ def _across(
 
 @nb.njit(cache=True)
 def _activate(boxes, active):
-    """The boxes (>= 0) not yet active, each once, in order; marks them active."""
-    out = np.empty(boxes.shape[0], dtype=np.int64)
-    n = 0
+    """The boxes (>= 0) not yet active, each once, ascending (so grouped by block, as the kept
+    boxes are); marks them active."""
+    new = np.zeros(active.shape[0], dtype=np.bool_)
     for r in boxes:
         if r >= 0 and not active[r]:
             active[r] = True
-            out[n] = r
-            n += 1
-    return out[:n]
+            new[r] = True
+    return np.flatnonzero(new)
 
 
 def box_geometry(origins, size, grid_origin, h, limit):

@@ -40,6 +40,7 @@ from ._lattice import (
     seeds,
     split,
     spread,
+    store,
 )
 from ._place import (
     bracket_step,
@@ -303,6 +304,8 @@ def _sample(prog, grid: _Grid, culled):
     nb = grid.blocks
     block, kept_loc = np.divmod(kept, BLOCK)  # each box's block and its place in it
     code = (block[:, 0] * nb[1] + block[:, 1]) * nb[2] + block[:, 2]
+    order = _by_block(code)  # the kept boxes grouped by block (see gather)
+    kept_loc, kept_value, code = kept_loc[order], kept_value[order], code[order]
     present = np.zeros(int(np.prod(nb)), dtype=bool)
     present[code] = True
     codes = np.flatnonzero(present)  # the blocks holding kept boxes, in order
@@ -312,12 +315,19 @@ def _sample(prog, grid: _Grid, culled):
     kept_slot = block_of.reshape(-1)[code]
     values, sampled, boxmap = new_store(len(codes), BLOCK, FINE, kept_slot, kept_loc, kept_value)
 
+    grouped = hasattr(prog, "field_grouped")  # (else an evaluator like distributed's)
+    if grouped:  # the program specialised to each block
+        block_lo = grid.origin + block_origins * grid.h
+        regions = prog.regions(block_lo, block_lo + BLOCK * grid.h)
+
     def sample(box_ids, offsets):
         step = max(1, SAMPLE_CHUNK // len(offsets))  # boxes at a time: bounded scratch memory
         for start in range(0, len(box_ids), step):
-            flat, points = gather(sampled, box_ids[start:start + step], kept_slot, kept_loc,
-                                  offsets, block_origins, grid.origin, grid.h)
-            values.reshape(-1)[flat] = grid.field(prog, points)
+            flat, points, first = gather(sampled, box_ids[start:start + step], kept_slot,
+                                         kept_loc, offsets, block_origins, grid.origin, grid.h)
+            f = (prog.field_grouped(regions, points, first) if grouped
+                 else prog.field(points))
+            parallel_for(store, len(flat), flat, grid.clip_values(points, f), values.reshape(-1))
 
     corners = np.stack(np.meshgrid(*([[0, FINE]] * 3), indexing="ij"), -1).reshape(-1, 3)
     whole = np.stack(np.meshgrid(*([np.arange(FINE + 1)] * 3), indexing="ij"), -1)
@@ -342,9 +352,19 @@ def _sample(prog, grid: _Grid, culled):
         )
     # the boxes sampled whole, by block: no other cell can cross the surface
     boxes_by_block = np.flatnonzero(active)
-    boxes_by_block = boxes_by_block[np.argsort(kept_slot[boxes_by_block], kind="stable")]
     box_start = np.searchsorted(kept_slot[boxes_by_block], np.arange(len(codes) + 1))
     return values, block_origins, box_start, kept_loc[boxes_by_block]
+
+
+def _by_block(code: np.ndarray) -> np.ndarray:
+    """The order that groups boxes by their block's ``code``, blocks ascending, each block's
+    boxes in their order.  The culling leaves each block's boxes together (its octree visits a
+    block's boxes one after the other), so this sorts those runs, not the boxes."""
+    starts = np.flatnonzero(np.diff(code, prepend=code[:1] - 1))
+    lengths = np.diff(np.r_[starts, len(code)])
+    runs = np.argsort(code[starts], kind="stable")
+    placed = np.cumsum(lengths[runs]) - lengths[runs]  # each run's start once sorted
+    return np.arange(len(code)) + np.repeat(starts[runs] - placed, lengths[runs])
 
 
 def _refine(prog, grid: _Grid, p0, axis, f0, f1):
