@@ -77,10 +77,17 @@ def test_kernel_is_watertight_on_noise(seed, quantized):
         v[tuple(idx)] = 0.0
     blocks = np.stack([v[:m], v[m - 1:]])
     cells = np.stack(np.meshgrid(*[np.arange(m - 1)] * 3, indexing="ij"), -1).reshape(-1, 3)
-    keys, _, _, centres, tris = block_triangles(
+    keys, _, _, centres, tris, vertex_start = block_triangles(
         blocks, np.array([[0, 0, 0], [m - 1, 0, 0]]), np.array([0, len(cells), 2 * len(cells)]),
         np.concatenate([cells, cells]), 1, np.array(v.shape), 0.5)  # boxes of one cell
     assert len(np.unique(keys)) == len(keys)
+    # the vertices block by block, those on the face between the blocks with the first
+    assert vertex_start[0] == 0 and vertex_start[-1] == len(keys)
+    x, axis = keys // 3 // (v.shape[1] * v.shape[2]), keys % 3
+    own = np.repeat([0, 1], np.diff(vertex_start))
+    assert np.all(np.where(own == 0, (x < m - 1) | ((x == m - 1) & (axis != 0)),
+                           (x > m - 1) | ((x == m - 1) & (axis == 0))))
+    assert np.count_nonzero(own == 0) > 10 and np.count_nonzero(own == 1) > 10
     assert tris.min() >= 0 and tris.max() < len(keys) + len(centres)
     z = np.zeros((len(keys) + len(centres), 3))
     mesh = Mesh(z, tris, z, z)

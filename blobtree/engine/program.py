@@ -129,19 +129,32 @@ class Program:
             cells //= 4
 
     def regions(self, lo: np.ndarray, hi: np.ndarray) -> Regions:
-        """The program specialised to each box (lo[r], hi[r]) ((R, 3) each), for
-        :meth:`field_grouped`."""
-        pad = 1e-9 * float(np.max(np.asarray(self.bounds[1]) - np.asarray(self.bounds[0])))
+        """The program specialised to each box (lo[r], hi[r]) ((R, 3) each; infinite corners
+        for a region holding anything), for :meth:`field_grouped`.  The boxes are grown by a
+        little more than the rounding of points computed on their faces."""
+        lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
+        corners = np.abs(np.concatenate([lo.ravel(), hi.ravel()]))
+        pad = 1e-9 * float(np.max(corners[np.isfinite(corners)], initial=1.0))
         return S.specialize_regions(self.code, self.boxes, self.lips, lo - pad, hi + pad)
 
     def field_grouped(self, regions: Regions, P: np.ndarray, first: np.ndarray) -> np.ndarray:
         """Field values (N,) of (N, 3) points grouped by region: P[first[r]:first[r + 1]] all
         lie in region r of ``regions`` (from :meth:`regions`; ``first`` has R + 1 entries).
         Each group runs its region's program, with no sorting."""
-        f = np.empty(len(P))
+        return self._run_grouped(regions, P, first, 1)[:, 0]
+
+    def evaluate_grouped(self, regions: Regions, P: np.ndarray, first: np.ndarray
+                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(field, gradient, colour) of points grouped by region, as :meth:`field_grouped`."""
+        vals = self._run_grouped(regions, P, first, 7)
+        return vals[:, 0].copy(), vals[:, 1:4].copy(), vals[:, 4:7].copy()
+
+    def _run_grouped(self, regions: Regions, P: np.ndarray, first: np.ndarray, width: int
+                     ) -> np.ndarray:
+        vals = np.empty((len(P), width))  # the field, or with the gradient and colour
         B.eval_grouped(regions, self.params, self.depth, np.ascontiguousarray(P, np.float64),
-                       np.asarray(first, dtype=np.int64), f[:, None])
-        return f
+                       np.asarray(first, dtype=np.int64), vals)
+        return vals
 
     def field(self, P: np.ndarray) -> np.ndarray:
         """Field values (N,) at (N, 3) points."""

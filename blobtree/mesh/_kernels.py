@@ -183,7 +183,10 @@ def block_triangles(values, origins, box_start, boxes, fine: int, dims, iso: flo
       admit no safe fan (see :func:`_fan_apex`; rare, only at ambiguous faces);
     * ``tris`` (T, 3): vertex indices (int32 unless there are 2^31 vertices), the edge vertices
       first, then the centres; oriented outward (counter-clockwise seen from the side of lower
-      field).
+      field);
+    * ``vertex_start`` (K + 1,): the edge vertices come block by block, block q's at
+      ``vertex_start[q]:vertex_start[q + 1]`` (a vertex on a face between blocks goes with the
+      first).
     """
     # (a few parts per thread: each part has a fixed cost, and 64 parts took 1.3-1.7x the time
     # of 8 on whorl126 at 256)
@@ -192,7 +195,7 @@ def block_triangles(values, origins, box_start, boxes, fine: int, dims, iso: flo
     if not parts:
         z = np.zeros(0)
         return (np.zeros(0, dtype=np.int64), z, z, np.zeros((0, 3)),
-                np.zeros((0, 3), dtype=np.int32))
+                np.zeros((0, 3), dtype=np.int32), np.zeros(len(values) + 1, dtype=np.int64))
     keys, f0, f1, shared, centres = (np.concatenate([part[k] for part in parts])
                                      for k in range(5))
     tris = np.concatenate([part[5] for part in parts])
@@ -202,7 +205,12 @@ def block_triangles(values, origins, box_start, boxes, fine: int, dims, iso: flo
     first, index = _weld(keys, shared)
     out = np.empty(tris.shape, dtype=np.int32 if len(first) + len(centres) < 2**31 else np.int64)
     parallel_for(_renumber, len(tris), tris, t_base, v_base, c_base, index, len(first), out)
-    return keys[first], f0[first], f1[first], centres, out
+    # each block's first vertex before welding, then among the vertices kept
+    block_v = np.concatenate([part[6][:-1] + base
+                              for part, base in zip(parts, v_base[:-1], strict=True)]
+                             + [v_base[-1:]])
+    return (keys[first], f0[first], f1[first], centres, out,
+            np.searchsorted(first, block_v))
 
 
 def _weld(keys: np.ndarray, shared: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -239,9 +247,9 @@ def _renumber(start, stop, tris, t_base, v_base, c_base, index, nverts, out):
 @nb.njit(cache=True, nogil=True)
 def _fill_part(start, stop, values, origins, box_start, boxes, fine, dims, iso):
     """The work of :func:`block_triangles` for blocks start..stop - 1 in one pass, into arrays
-    grown as needed: (keys, f0, f1, shared, centres, tris), numbered from 0 within the part
-    (``shared``: whether each edge lies on a face of its block, so another block may list it
-    too)."""
+    grown as needed: (keys, f0, f1, shared, centres, tris, block_v), numbered from 0 within the
+    part (``shared``: whether each edge lies on a face of its block, so another block may list
+    it too; ``block_v``: where each block's vertices start, and their end)."""
     m = values.shape[1]
     vid = np.full(m * m * m * 3, -1, dtype=np.int64)
     touched = np.empty(m * m * m * 3, dtype=np.int64)
@@ -255,8 +263,10 @@ def _fill_part(start, stop, values, origins, box_start, boxes, fine, dims, iso):
     shared = np.empty(guess, dtype=np.bool_)
     centres = np.empty((16, 3))
     tris = np.empty((2 * guess, 3), dtype=np.int64)
+    block_v = np.empty(stop - start + 1, dtype=np.int64)
     ov = oc = ot = 0
     for blk in range(start, stop):
+        block_v[blk - start] = ov
         most = 12 * cells * (box_start[blk + 1] - box_start[blk])  # a cell adds 12 at most
         if ov + most > keys.shape[0]:
             size = max(2 * keys.shape[0], ov + most)
@@ -269,7 +279,8 @@ def _fill_part(start, stop, values, origins, box_start, boxes, fine, dims, iso):
         ov, oc, ot = _fill_block(values, blk, origins, box_start, boxes, fine, dims, iso, ov, oc,
                                  ot, keys, f0, f1, centres, tris, shared, vid, touched, scratch,
                                  v)
-    return keys[:ov], f0[:ov], f1[:ov], shared[:ov], centres[:oc], tris[:ot]
+    block_v[stop - start] = ov
+    return keys[:ov], f0[:ov], f1[:ov], shared[:ov], centres[:oc], tris[:ot], block_v
 
 
 @nb.njit(cache=True)

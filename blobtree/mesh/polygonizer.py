@@ -117,28 +117,31 @@ def polygonize(
               bar_format="{desc}: {n_fmt}/{total_fmt} steps |{bar}| {elapsed}") as bar:
         culled = _cull(prog, grid, budget)
         bar.update()
-        values, block_origins, box_start, boxes = _sample(prog, grid, culled)
+        values, block_origins, box_start, boxes, regions = _sample(prog, grid, culled)
         bar.update()
-        keys, f0, f1, centres, tris = block_triangles(
+        keys, f0, f1, centres, tris, vertex_start = block_triangles(
             values, block_origins, box_start, boxes, FINE, grid.dims, ISO
         )
         del values
         bar.update()
-        verts, grad, colors = _place(prog, grid, keys, f0, f1, centres)
+        verts, grad, colors = _place(prog, grid, regions, keys, f0, f1, centres, vertex_start)
         bar.update()
     return Mesh(verts, tris, _normals(grad, verts, tris), np.clip(colors, 0.0, 1.0))
 
 
-def _place(prog, grid: _Grid, keys, f0, f1, centres):
-    """Vertices on the surface (edge vertices, then loop-centre vertices), with the field's
-    gradient and colour there."""
+def _place(prog, grid: _Grid, regions, keys, f0, f1, centres, vertex_start):
+    """Vertices on the surface (edge vertices, block by block as ``vertex_start`` says, then
+    loop-centre vertices), with the field's gradient and colour there."""
     p0, axis = grid.edge_points(keys)
-    t, t_lo, t_hi, verts = _refine(prog, grid, p0, axis, f0, f1)
+    t, t_lo, t_hi, verts = _refine(prog, grid, regions, p0, axis, f0, f1, vertex_start)
     if grid.clip:  # the cap lies on the bounds; bracketing converges slowly onto the jump
         np.clip(verts, grid.lo, grid.hi, out=verts)
     n = len(verts)
     verts = np.concatenate([verts, _project(prog, grid, grid.origin + centres * grid.h)])
-    f, grad, colors = prog.evaluate(verts)
+    if regions is None:
+        f, grad, colors = prog.evaluate(verts)
+    else:  # the centres, which may have left their blocks, in the last region: anywhere
+        f, grad, colors = prog.evaluate_grouped(regions, verts, np.r_[vertex_start, len(verts)])
     # a last Newton step along each edge from the values just taken, kept inside the bracket
     # (and off the cap of a cut solid, where the real field is not the one meshed)
     movable = (np.all((p0 >= grid.lo) & (p0 + grid.h <= grid.hi), axis=1) if grid.clip
@@ -315,19 +318,15 @@ def _sample(prog, grid: _Grid, culled):
     kept_slot = block_of.reshape(-1)[code]
     values, sampled, boxmap = new_store(len(codes), BLOCK, FINE, kept_slot, kept_loc, kept_value)
 
-    grouped = hasattr(prog, "field_grouped")  # (else an evaluator like distributed's)
-    if grouped:  # the program specialised to each block
-        block_lo = grid.origin + block_origins * grid.h
-        regions = prog.regions(block_lo, block_lo + BLOCK * grid.h)
+    regions = _block_regions(prog, grid, block_origins)
 
     def sample(box_ids, offsets):
         step = max(1, SAMPLE_CHUNK // len(offsets))  # boxes at a time: bounded scratch memory
         for start in range(0, len(box_ids), step):
             flat, points, first = gather(sampled, box_ids[start:start + step], kept_slot,
                                          kept_loc, offsets, block_origins, grid.origin, grid.h)
-            f = (prog.field_grouped(regions, points, first) if grouped
-                 else prog.field(points))
-            parallel_for(store, len(flat), flat, grid.clip_values(points, f), values.reshape(-1))
+            f = _field(prog, grid, regions, points, first)
+            parallel_for(store, len(flat), flat, f, values.reshape(-1))
 
     corners = np.stack(np.meshgrid(*([[0, FINE]] * 3), indexing="ij"), -1).reshape(-1, 3)
     whole = np.stack(np.meshgrid(*([np.arange(FINE + 1)] * 3), indexing="ij"), -1)
@@ -353,7 +352,25 @@ def _sample(prog, grid: _Grid, culled):
     # the boxes sampled whole, by block: no other cell can cross the surface
     boxes_by_block = np.flatnonzero(active)
     box_start = np.searchsorted(kept_slot[boxes_by_block], np.arange(len(codes) + 1))
-    return values, block_origins, box_start, kept_loc[boxes_by_block]
+    return values, block_origins, box_start, kept_loc[boxes_by_block], regions
+
+
+def _block_regions(prog, grid: _Grid, block_origins: np.ndarray):
+    """The program specialised to each block at ``block_origins``, and then to everywhere (for
+    points that may have left their block), if the evaluator can run points grouped by
+    region (``blobtree.distributed``'s cannot: None)."""
+    if not hasattr(prog, "field_grouped"):
+        return None
+    lo = np.concatenate([grid.origin + block_origins * grid.h, np.full((1, 3), -np.inf)])
+    hi = np.concatenate([lo[:-1] + BLOCK * grid.h, np.full((1, 3), np.inf)])
+    return prog.regions(lo, hi)
+
+
+def _field(prog, grid: _Grid, regions, points: np.ndarray, first: np.ndarray) -> np.ndarray:
+    """The field (clipped as the lattice is) at points grouped by block (block q's at
+    first[q]:first[q + 1]), through the blocks' programs where the evaluator has them."""
+    f = prog.field(points) if regions is None else prog.field_grouped(regions, points, first)
+    return grid.clip_values(points, f)
 
 
 def _by_block(code: np.ndarray) -> np.ndarray:
@@ -367,9 +384,10 @@ def _by_block(code: np.ndarray) -> np.ndarray:
     return np.arange(len(code)) + np.repeat(starts[runs] - placed, lengths[runs])
 
 
-def _refine(prog, grid: _Grid, p0, axis, f0, f1):
+def _refine(prog, grid: _Grid, regions, p0, axis, f0, f1, vertex_start):
     """Regula falsi along each vertex's lattice edge (:mod:`._place`): up to ``REFINE_STEPS``
-    steps, a vertex leaving once its secant puts the root within ``REFINE_TOL`` of the edge.
+    steps, a vertex leaving once its secant puts the root within ``REFINE_TOL`` of the edge
+    (the vertices come by block, as ``vertex_start`` says).
     Returns the root's parameter t in (0, 1), the final bracket (t_lo, t_hi) (kept 1e-4 from
     the ends) and the points (V, 3) at t."""
     n = len(p0)
@@ -383,7 +401,7 @@ def _refine(prog, grid: _Grid, p0, axis, f0, f1):
             break
         m = len(rows)
         parallel_for(secant_points, m, rows, p0, axis, grid.h, ta, tb, ga, gb, t, pts)
-        g = grid.field(prog, pts[:m]) - ISO
+        g = _field(prog, grid, regions, pts[:m], np.searchsorted(rows, vertex_start)) - ISO
         done = np.empty(m, dtype=bool)
         parallel_for(bracket_step, m, rows, g, t, ta, tb, ga, gb, last, REFINE_TOL, done)
         rows = rows[~done]
