@@ -1,14 +1,17 @@
-"""The C allocator's thresholds for large blocks, pinned where glibc's own heuristic ends up.
+"""The C allocator's thresholds for large blocks: freed arrays kept for reuse, not unmapped.
 
 glibc's ``malloc`` serves a block above ``M_MMAP_THRESHOLD`` (128 KiB at start) with fresh pages
-from ``mmap`` and unmaps them on ``free``; it raises the threshold (at most to 32 MiB) only as
-such blocks are freed, and returns the free top of its heap to the system beyond
-``M_TRIM_THRESHOLD``.  Numpy takes its arrays from ``malloc``, and the mesher and the engine make
-many short-lived arrays of a few MiB, so most of them were fresh pages, each page a fault on
-first touch: ``polygonize(whorl126, 256)`` took 13,000 minor faults and 185 ms, and with the
-thresholds pinned at glibc's own maxima (32 MiB, and twice that for trimming) 300 faults and
-152 ms (the Murex at 512: 4.85 s -> 4.72 s; rendering and the engine's 10^7 points unchanged).
-The cost: a process keeps up to 64 MiB of freed memory for reuse instead of returning it.
+from ``mmap`` when its heap has no free block that large, and unmaps them on ``free``; it raises
+the threshold (at most to 32 MiB) only as such blocks are freed, and returns the free top of its
+heap to the system beyond ``M_TRIM_THRESHOLD`` (twice the mmap threshold).  Numpy takes its
+arrays from ``malloc``, and the mesher and the engine make many short-lived arrays of a few to a
+few hundred MiB, so most of them were fresh pages, each page a fault and a zeroing on first
+touch.  With the mmap threshold pinned at glibc's own maximum (32 MiB) and the heap's free top
+kept up to ``TRIM_THRESHOLD`` (256 MiB, or 1/32 of the machine's memory if less), repeated
+meshing reuses its memory: ``polygonize(whorl126, 256)`` 13,000 -> 260 page faults and 185 ->
+150 ms, at 512 27,000 -> 4,500 faults and 640 -> 560 ms; the Murex at 512 1-3% faster;
+rendering and the engine's 10^7 points unchanged.  The cost: a process keeps up to
+``TRIM_THRESHOLD`` of freed memory for reuse instead of returning it.
 
 :func:`pin_thresholds` runs when blobtree is imported.  It does nothing where the C library is
 not glibc, where the user has set glibc's own variables (``MALLOC_MMAP_THRESHOLD_``,
@@ -23,8 +26,10 @@ from collections.abc import Mapping
 
 #: blocks up to this size come from the heap and are reused (glibc's maximum for its heuristic)
 MMAP_THRESHOLD = 32 << 20
-#: free memory at the heap's top kept for reuse (glibc's heuristic: twice the mmap threshold)
-TRIM_THRESHOLD = 2 * MMAP_THRESHOLD
+#: free memory at the heap's top kept for reuse, at most (and at most 1/32 of the machine's):
+#: at 64 MiB whorl126's mesh at 256 was trimmed and mapped afresh on every call, at 128 MiB its
+#: mesh at 512; 512 MiB gained nothing more
+TRIM_THRESHOLD = 256 << 20
 #: mallopt's parameter numbers (malloc.h)
 M_TRIM_THRESHOLD, M_MMAP_THRESHOLD = -1, -3
 #: environment variables through which a user sets the allocator; any of them leaves it alone
@@ -43,5 +48,6 @@ def pin_thresholds(environ: Mapping[str, str] = os.environ) -> bool:
         libc.gnu_get_libc_version  # noqa: B018  (only glibc has it)
     except (OSError, AttributeError):
         return False
+    memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
     return bool(libc.mallopt(M_MMAP_THRESHOLD, MMAP_THRESHOLD)
-                and libc.mallopt(M_TRIM_THRESHOLD, TRIM_THRESHOLD))
+                and libc.mallopt(M_TRIM_THRESHOLD, min(TRIM_THRESHOLD, memory // 32)))
