@@ -24,13 +24,11 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass
 
 import numpy as np
 
 from ..checks import Integer, Vec3, positive, short_repr
 from ..engine.program import program_of
-from ..engine.specialize import Regions
 from ..nodes.base import ISO
 from ..parallel import parallel_for
 from ._kernels import block_triangles
@@ -219,9 +217,8 @@ class _Grid:
 def _cull(prog, grid: _Grid, budget: int):
     """Octree descent from blocks of ``BLOCK << levels`` cells down to ``FINE`` cells.
 
-    Returns the lattice origins (K, 3) of the finest boxes the surface may cross, grouped by
-    block, the field at their centres (K,) (lattice points), each one's block (K,), and the
-    blocks (:class:`_Blocks`: those holding any finest box the bounds left).
+    Returns the lattice origins (K, 3) of the finest boxes the surface may cross and the field
+    at their centres (K,) (lattice points).
     """
     levels = max(0, math.ceil(math.log2(max(1, int(grid.blocks.max())) / 4)))
     size = BLOCK << levels  # cells per side of the top-level blocks
@@ -229,34 +226,33 @@ def _cull(prog, grid: _Grid, budget: int):
     origins = np.stack(np.meshgrid(*(np.arange(n) * size for n in top), indexing="ij"), -1)
     origins = origins.reshape(-1, 3)
     limit = grid.dims - 1
-    while size > FINE:
+    parent_lip = None
+    while True:
         lo, hi, centre, half_diag = box_geometry(origins, size, grid.origin, grid.h, limit)
-        fc, lip, below, above = prog.bound_at(lo, hi, centre).T
+        # the smallest boxes reuse their ancestor's bound: it holds over them too.  (The field
+        # at the centre is unclipped, as L bounds it.)
+        if size == FINE:
+            lip, fc = parent_lip, prog.field(centre) if len(origins) else np.zeros(0)
+            below = above = np.zeros(len(fc))
+        else:
+            fc, lip, below, above = prog.bound_at(lo, hi, centre).T
         keep = keep_boxes(lip, fc, below, above, half_diag, lo, hi, grid.lo, grid.hi, grid.clip,
                           ISO)
         origins = origins[keep]
-        triangles = len(origins) * size * size * TRIANGLES_PER_CELL
-        _check_budget(triangles, 0, grid.h, budget, slack=COARSE_SLACK)
+        if size > FINE:
+            triangles = len(origins) * size * size * TRIANGLES_PER_CELL
+            _check_budget(triangles, 0, grid.h, budget, slack=COARSE_SLACK)
+        elif len(origins) * (BYTES_PER_BOX + MAX_TRIANGLES_PER_BOX * BYTES_PER_TRIANGLE) > budget:
+            # (sampled only when the most the boxes can give might not fit)
+            _check_budget(_estimate_triangles(prog, grid, origins), len(origins), grid.h, budget)
+        if size == FINE:  # (the centres' values are the lattice samples there)
+            fc = fc[keep]
+            return origins, grid.clip_values(centre[keep], fc) if grid.clip else fc
         # boxes below BOUND_MIN get no bound of their own: straight on to the finest
         step = 2 if size > BOUND_MIN else size // FINE
         size //= step
         origins, parent = split(origins, size, step, limit)
-        lip = lip[keep][parent]
-    # the finest boxes, grouped by block to be evaluated through the blocks' programs, reuse
-    # their ancestor's bound: it holds over them too.  (The field at the centre is unclipped,
-    # as L bounds it.)
-    order, slot, blocks = _Blocks.of(prog, grid, origins)
-    origins, lip = origins[order], lip[order]
-    lo, hi, centre, half_diag = box_geometry(origins, size, grid.origin, grid.h, limit)
-    fc = _field(prog, blocks.regions, centre, blocks.first(slot))
-    none = np.zeros(len(fc))
-    keep = keep_boxes(lip, fc, none, none, half_diag, lo, hi, grid.lo, grid.hi, grid.clip, ISO)
-    origins = origins[keep]
-    if len(origins) * (BYTES_PER_BOX + MAX_TRIANGLES_PER_BOX * BYTES_PER_TRIANGLE) > budget:
-        # (sampled only when the most the boxes can give might not fit)
-        _check_budget(_estimate_triangles(prog, grid, origins), len(origins), grid.h, budget)
-    # (the centres' values are the lattice samples there)
-    return origins, grid.clip_values(centre[keep], fc[keep]), slot[keep], blocks
+        parent_lip = lip[keep][parent]
 
 
 def _estimate_triangles(prog, grid: _Grid, origins: np.ndarray) -> float:
@@ -307,18 +303,29 @@ def _sample(prog, grid: _Grid, culled):
        so the contour closes.  A piece of surface inside one box that misses all nine samples
        is lost (see docs/meshing.md).
     """
-    kept, kept_value, kept_slot, blocks = culled
-    block_origins, block_of, regions = blocks.origins, blocks.of_code, blocks.regions
-    kept_loc = kept - block_origins[kept_slot]  # each box's place in its block
-    nblocks = len(block_origins)
-    values, sampled, boxmap = new_store(nblocks, BLOCK, FINE, kept_slot, kept_loc, kept_value)
+    kept, kept_value = culled
+    nb = grid.blocks
+    block, kept_loc = np.divmod(kept, BLOCK)  # each box's block and its place in it
+    code = (block[:, 0] * nb[1] + block[:, 1]) * nb[2] + block[:, 2]
+    order = _by_block(code)  # the kept boxes grouped by block (see gather)
+    kept_loc, kept_value, code = kept_loc[order], kept_value[order], code[order]
+    present = np.zeros(int(np.prod(nb)), dtype=bool)
+    present[code] = True
+    codes = np.flatnonzero(present)  # the blocks holding kept boxes, in order
+    block_origins = np.stack(np.unravel_index(codes, tuple(nb)), axis=1) * BLOCK
+    block_of = np.full(tuple(nb), -1, dtype=np.int64)
+    block_of.reshape(-1)[codes] = np.arange(len(codes))
+    kept_slot = block_of.reshape(-1)[code]
+    values, sampled, boxmap = new_store(len(codes), BLOCK, FINE, kept_slot, kept_loc, kept_value)
+
+    regions = _block_regions(prog, grid, block_origins)
 
     def sample(box_ids, offsets):
         step = max(1, SAMPLE_CHUNK // len(offsets))  # boxes at a time: bounded scratch memory
         for start in range(0, len(box_ids), step):
             flat, points, first = gather(sampled, box_ids[start:start + step], kept_slot,
                                          kept_loc, offsets, block_origins, grid.origin, grid.h)
-            f = grid.clip_values(points, _field(prog, regions, points, first))
+            f = _field(prog, grid, regions, points, first)
             parallel_for(store, len(flat), flat, f, values.reshape(-1))
 
     corners = np.stack(np.meshgrid(*([[0, FINE]] * 3), indexing="ij"), -1).reshape(-1, 3)
@@ -344,53 +351,26 @@ def _sample(prog, grid: _Grid, culled):
         )
     # the boxes sampled whole, by block: no other cell can cross the surface
     boxes_by_block = np.flatnonzero(active)
-    box_start = np.searchsorted(kept_slot[boxes_by_block], np.arange(nblocks + 1))
+    box_start = np.searchsorted(kept_slot[boxes_by_block], np.arange(len(codes) + 1))
     return values, block_origins, box_start, kept_loc[boxes_by_block], regions
 
 
-@dataclass
-class _Blocks:
-    """The lattice's blocks of ``BLOCK`` cells that hold finest boxes, in the order of their
-    codes (row-major block indices): their lattice origins (S, 3), each block's place in this
-    list by its indices (``of_code``, -1 for none), and the program specialised to each, then
-    to everywhere (for points that may have left their block), when the evaluator can run
-    points grouped by region (``blobtree.distributed``'s cannot: None)."""
-
-    origins: np.ndarray
-    of_code: np.ndarray
-    regions: Regions | None
-
-    @classmethod
-    def of(cls, prog, grid: _Grid, boxes: np.ndarray) -> tuple[np.ndarray, np.ndarray, _Blocks]:
-        """The blocks of the boxes at lattice origins ``boxes`` (B, 3); the order that groups
-        the boxes by block, and each one's block in that order."""
-        nb = grid.blocks
-        block = boxes // BLOCK
-        code = (block[:, 0] * nb[1] + block[:, 1]) * nb[2] + block[:, 2]
-        order = _by_block(code)
-        code = code[order]
-        starts = np.flatnonzero(np.diff(code, prepend=code[:1] - 1))
-        codes = code[starts]
-        slot = np.repeat(np.arange(len(codes)), np.diff(np.r_[starts, len(code)]))
-        origins = np.stack(np.unravel_index(codes, tuple(nb)), axis=1) * BLOCK
-        of_code = np.full(tuple(nb), -1, dtype=np.int64)
-        of_code.reshape(-1)[codes] = np.arange(len(codes))
-        regions = None
-        if hasattr(prog, "field_grouped"):
-            lo = np.concatenate([grid.origin + origins * grid.h, np.full((1, 3), -np.inf)])
-            hi = np.concatenate([lo[:-1] + BLOCK * grid.h, np.full((1, 3), np.inf)])
-            regions = prog.regions(lo, hi)
-        return order, slot, cls(origins, of_code, regions)
-
-    def first(self, slot: np.ndarray) -> np.ndarray:
-        """Where each block's items start in a list grouped by block (``slot``: each item's)."""
-        return np.searchsorted(slot, np.arange(len(self.origins) + 1))
+def _block_regions(prog, grid: _Grid, block_origins: np.ndarray):
+    """The program specialised to each block at ``block_origins``, and then to everywhere (for
+    points that may have left their block), if the evaluator can run points grouped by
+    region (``blobtree.distributed``'s cannot: None)."""
+    if not hasattr(prog, "field_grouped"):
+        return None
+    lo = np.concatenate([grid.origin + block_origins * grid.h, np.full((1, 3), -np.inf)])
+    hi = np.concatenate([lo[:-1] + BLOCK * grid.h, np.full((1, 3), np.inf)])
+    return prog.regions(lo, hi)
 
 
-def _field(prog, regions: Regions | None, points: np.ndarray, first: np.ndarray) -> np.ndarray:
-    """The field at points grouped by block (block q's at first[q]:first[q + 1]), through the
-    blocks' programs where the evaluator has them."""
-    return prog.field(points) if regions is None else prog.field_grouped(regions, points, first)
+def _field(prog, grid: _Grid, regions, points: np.ndarray, first: np.ndarray) -> np.ndarray:
+    """The field (clipped as the lattice is) at points grouped by block (block q's at
+    first[q]:first[q + 1]), through the blocks' programs where the evaluator has them."""
+    f = prog.field(points) if regions is None else prog.field_grouped(regions, points, first)
+    return grid.clip_values(points, f)
 
 
 def _by_block(code: np.ndarray) -> np.ndarray:
@@ -421,9 +401,7 @@ def _refine(prog, grid: _Grid, regions, p0, axis, f0, f1, vertex_start):
             break
         m = len(rows)
         parallel_for(secant_points, m, rows, p0, axis, grid.h, ta, tb, ga, gb, t, pts)
-        at = pts[:m]
-        g = grid.clip_values(at, _field(prog, regions, at, np.searchsorted(rows, vertex_start)))
-        g -= ISO
+        g = _field(prog, grid, regions, pts[:m], np.searchsorted(rows, vertex_start)) - ISO
         done = np.empty(m, dtype=bool)
         parallel_for(bracket_step, m, rows, g, t, ta, tb, ga, gb, last, REFINE_TOL, done)
         rows = rows[~done]
