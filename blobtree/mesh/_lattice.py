@@ -21,7 +21,7 @@ def new_store(nblocks, block, fine, kept_slot, kept_loc, kept_value):
     m = block + 1
     s = block // fine
     values = np.empty((nblocks, m, m, m))
-    sampled = np.empty((nblocks, m, m, m), dtype=np.uint8)  # 0 no, 1 yes (2: see gather)
+    sampled = np.empty((nblocks, m, m, m), dtype=np.bool_)
     boxmap = np.empty((nblocks, s, s, s), dtype=np.int64)
     parallel_for(_clear_blocks, nblocks, sampled, boxmap)
     parallel_for(_store_centres, len(kept_slot), fine, kept_slot, kept_loc, kept_value, values,
@@ -33,7 +33,7 @@ def new_store(nblocks, block, fine, kept_slot, kept_loc, kept_value):
 def _clear_blocks(start, stop, sampled, boxmap):
     """Blocks start..stop - 1: nothing sampled, no kept box."""
     for b in range(start, stop):
-        sampled[b] = 0
+        sampled[b] = False
         boxmap[b] = -1
 
 
@@ -46,7 +46,7 @@ def _store_centres(start, stop, fine, kept_slot, kept_loc, kept_value, values, s
         i, j, k = kept_loc[q, 0], kept_loc[q, 1], kept_loc[q, 2]
         boxmap[b, i // fine, j // fine, k // fine] = q
         values[b, i + half, j + half, k + half] = kept_value[q]
-        sampled[b, i + half, j + half, k + half] = 1
+        sampled[b, i + half, j + half, k + half] = True
 
 
 def gather(sampled, boxes, kept_slot, kept_loc, offsets, block_origins, grid_origin, h):
@@ -55,58 +55,56 @@ def gather(sampled, boxes, kept_slot, kept_loc, offsets, block_origins, grid_ori
     block's points start (B + 1: block b's at first[b]:first[b + 1]).  ``boxes`` must come
     grouped by block (``kept_slot[boxes]`` never decreasing).  Marks the points sampled (the
     caller stores their values).  Blocks are gathered in parallel: each owns its points."""
+    assert sampled.shape[1] <= 256  # (local coordinates are packed in bytes)
     counts = np.zeros(sampled.shape[0] + 1, dtype=np.int64)
     slots = kept_slot[boxes]
     group = np.r_[np.flatnonzero(np.diff(slots, prepend=slots[:1] - 1)), len(boxes)]
+    found = np.empty(len(boxes) * len(offsets), dtype=np.int64)  # room for each group's points
     groups = len(group) - 1
-    parallel_for(_mark_new, groups, sampled, boxes, group, kept_slot, kept_loc, offsets, counts)
+    parallel_for(_find_new, groups, sampled, boxes, group, kept_slot, kept_loc, offsets, found,
+                 counts)
     first = np.cumsum(counts)
     flat, coords = np.empty(first[-1], dtype=np.int64), np.empty((first[-1], 3))
-    parallel_for(_emit_new, groups, sampled, boxes, group, kept_slot, kept_loc, offsets,
-                 block_origins, grid_origin, h, first, flat, coords)
+    parallel_for(_place_new, groups, boxes, group, kept_slot, len(offsets), sampled.shape[1],
+                 found, first, block_origins, grid_origin, h, flat, coords)
     return flat, coords, first
 
 
 @nb.njit(cache=True, nogil=True)
-def _mark_new(start, stop, sampled, boxes, group, kept_slot, kept_loc, offsets, counts):
-    """Groups start..stop - 1 of ``boxes`` (one block each): mark their points not sampled yet
-    as pending (2), counting them into counts[block + 1]."""
+def _find_new(start, stop, sampled, boxes, group, kept_slot, kept_loc, offsets, found, counts):
+    """Groups start..stop - 1 of ``boxes`` (one block each): their points not sampled yet,
+    marked sampled, their local coordinates (i << 16 | j << 8 | k) from found[group[g] * P]
+    on, their count in counts[block + 1]."""
     for g in range(start, stop):
         b = kept_slot[boxes[group[g]]]
-        n = 0
+        n = group[g] * offsets.shape[0]
         for q in boxes[group[g]:group[g + 1]]:
             for p in range(offsets.shape[0]):
                 i = kept_loc[q, 0] + offsets[p, 0]
                 j = kept_loc[q, 1] + offsets[p, 1]
                 k = kept_loc[q, 2] + offsets[p, 2]
-                if sampled[b, i, j, k] == 0:
-                    sampled[b, i, j, k] = 2
+                if not sampled[b, i, j, k]:
+                    sampled[b, i, j, k] = True
+                    found[n] = (i << 16) | (j << 8) | k
                     n += 1
-        counts[b + 1] = n
+        counts[b + 1] = n - group[g] * offsets.shape[0]
 
 
 @nb.njit(cache=True, nogil=True)
-def _emit_new(start, stop, sampled, boxes, group, kept_slot, kept_loc, offsets, block_origins,
-              grid_origin, h, first, flat, coords):
-    """Groups start..stop - 1: each pending point, marked sampled (1), at its block's place in
-    ``flat`` and ``coords``, in the order :func:`_mark_new` met them."""
-    m = sampled.shape[1]
+def _place_new(start, stop, boxes, group, kept_slot, noffsets, m, found, first, block_origins,
+               grid_origin, h, flat, coords):
+    """Groups start..stop - 1: the points :func:`_find_new` found, at their block's place in
+    ``flat`` and ``coords``."""
     for g in range(start, stop):
         b = kept_slot[boxes[group[g]]]
-        n = first[b]
-        for q in boxes[group[g]:group[g + 1]]:
-            for p in range(offsets.shape[0]):
-                i = kept_loc[q, 0] + offsets[p, 0]
-                j = kept_loc[q, 1] + offsets[p, 1]
-                k = kept_loc[q, 2] + offsets[p, 2]
-                if sampled[b, i, j, k] != 2:
-                    continue
-                sampled[b, i, j, k] = 1
-                flat[n] = ((b * m + i) * m + j) * m + k
-                coords[n, 0] = grid_origin[0] + (block_origins[b, 0] + i) * h
-                coords[n, 1] = grid_origin[1] + (block_origins[b, 1] + j) * h
-                coords[n, 2] = grid_origin[2] + (block_origins[b, 2] + k) * h
-                n += 1
+        src = group[g] * noffsets
+        for n in range(first[b], first[b + 1]):
+            i, j, k = found[src] >> 16, (found[src] >> 8) & 255, found[src] & 255
+            src += 1
+            flat[n] = ((b * m + i) * m + j) * m + k
+            coords[n, 0] = grid_origin[0] + (block_origins[b, 0] + i) * h
+            coords[n, 1] = grid_origin[1] + (block_origins[b, 1] + j) * h
+            coords[n, 2] = grid_origin[2] + (block_origins[b, 2] + k) * h
 
 
 @nb.njit(cache=True, nogil=True)
@@ -161,19 +159,16 @@ def _seeds(start, stop, values, kept_slot, kept_loc, fine, iso, out):
 
 @nb.njit(cache=True)
 def _face_crossed(values, b, i, j, k, axis, side, fine, iso):
-    """Does a lattice edge on a face of the box at local (i, j, k) of block b cross the iso?"""
+    """Does a lattice edge on a face of the box at local (i, j, k) of block b cross the iso?
+    Exactly when the face's samples are not all on one side (its lattice is connected)."""
+    inside = outside = False
     for u in range(fine + 1):
         for v in range(fine + 1):
-            here = _face_value(values, b, i, j, k, axis, side * fine, u, v) >= iso
-            if (
-                u < fine
-                and (_face_value(values, b, i, j, k, axis, side * fine, u + 1, v) >= iso) != here
-            ):
-                return True
-            if (
-                v < fine
-                and (_face_value(values, b, i, j, k, axis, side * fine, u, v + 1) >= iso) != here
-            ):
+            if _face_value(values, b, i, j, k, axis, side * fine, u, v) >= iso:
+                inside = True
+            else:
+                outside = True
+            if inside and outside:
                 return True
     return False
 
