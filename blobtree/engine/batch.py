@@ -277,6 +277,16 @@ def _unsort(j0, j1, vals, pos, out_f, out_g, out_c):
                 out_c[j, r] = vals[q, 4 + r] if q >= 0 else DEFAULT_GREY
 
 
+@kernel(nogil=True)
+def columns(j0, j1, vals, out_f, out_g, out_c):
+    """Rows j0..j1 - 1 of vals (M, 7) split into the field, gradient and colour."""
+    for j in range(j0, j1):
+        out_f[j] = vals[j, 0]
+        for r in range(3):
+            out_g[j, r] = vals[j, 1 + r]
+            out_c[j, r] = vals[j, 4 + r]
+
+
 #: Points partitioned at a time (scratch: ~60 bytes per point of a block).
 BLOCK = 1 << 20
 #: Sorted points per evaluation task.

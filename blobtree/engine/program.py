@@ -147,7 +147,9 @@ class Program:
                          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(field, gradient, colour) of points grouped by region, as :meth:`field_grouped`."""
         vals = self._run_grouped(regions, P, first, 7)
-        return vals[:, 0].copy(), vals[:, 1:4].copy(), vals[:, 4:7].copy()
+        f, g, c = np.empty(len(P)), np.empty((len(P), 3)), np.empty((len(P), 3))
+        parallel_for(B.columns, len(P), vals, f, g, c)
+        return f, g, c
 
     def _run_grouped(self, regions: Regions, P: np.ndarray, first: np.ndarray, width: int
                      ) -> np.ndarray:

@@ -236,9 +236,10 @@ def _cull(prog, grid: _Grid, budget: int):
             below = above = np.zeros(len(fc))
         else:
             fc, lip, below, above = prog.bound_at(lo, hi, centre).T
-        keep = keep_boxes(lip, fc, below, above, half_diag, lo, hi, grid.lo, grid.hi, grid.clip,
-                          ISO)
-        origins = origins[keep]
+        # (taking rows by index: 5x faster than numpy's boolean indexing here)
+        keep = np.flatnonzero(keep_boxes(lip, fc, below, above, half_diag, lo, hi, grid.lo,
+                                         grid.hi, grid.clip, ISO))
+        origins = origins.take(keep, axis=0)
         if size > FINE:
             triangles = len(origins) * size * size * TRIANGLES_PER_CELL
             _check_budget(triangles, 0, grid.h, budget, slack=COARSE_SLACK)
@@ -246,13 +247,13 @@ def _cull(prog, grid: _Grid, budget: int):
             # (sampled only when the most the boxes can give might not fit)
             _check_budget(_estimate_triangles(prog, grid, origins), len(origins), grid.h, budget)
         if size == FINE:  # (the centres' values are the lattice samples there)
-            fc = fc[keep]
-            return origins, grid.clip_values(centre[keep], fc) if grid.clip else fc
+            fc = fc.take(keep)
+            return origins, grid.clip_values(centre.take(keep, axis=0), fc) if grid.clip else fc
         # boxes below BOUND_MIN get no bound of their own: straight on to the finest
         step = 2 if size > BOUND_MIN else size // FINE
         size //= step
         origins, parent = split(origins, size, step, limit)
-        parent_lip = lip[keep][parent]
+        parent_lip = lip.take(keep[parent])
 
 
 def _estimate_triangles(prog, grid: _Grid, origins: np.ndarray) -> float:
@@ -308,7 +309,7 @@ def _sample(prog, grid: _Grid, culled):
     block, kept_loc = np.divmod(kept, BLOCK)  # each box's block and its place in it
     code = (block[:, 0] * nb[1] + block[:, 1]) * nb[2] + block[:, 2]
     order = _by_block(code)  # the kept boxes grouped by block (see gather)
-    kept_loc, kept_value, code = kept_loc[order], kept_value[order], code[order]
+    kept_loc, kept_value, code = kept_loc.take(order, axis=0), kept_value[order], code[order]
     present = np.zeros(int(np.prod(nb)), dtype=bool)
     present[code] = True
     codes = np.flatnonzero(present)  # the blocks holding kept boxes, in order
@@ -352,7 +353,7 @@ def _sample(prog, grid: _Grid, culled):
     # the boxes sampled whole, by block: no other cell can cross the surface
     boxes_by_block = np.flatnonzero(active)
     box_start = np.searchsorted(kept_slot[boxes_by_block], np.arange(len(codes) + 1))
-    return values, block_origins, box_start, kept_loc[boxes_by_block], regions
+    return values, block_origins, box_start, kept_loc.take(boxes_by_block, axis=0), regions
 
 
 def _block_regions(prog, grid: _Grid, block_origins: np.ndarray):
@@ -404,7 +405,7 @@ def _refine(prog, grid: _Grid, regions, p0, axis, f0, f1, vertex_start):
         g = _field(prog, grid, regions, pts[:m], np.searchsorted(rows, vertex_start)) - ISO
         done = np.empty(m, dtype=bool)
         parallel_for(bracket_step, m, rows, g, t, ta, tb, ga, gb, last, REFINE_TOL, done)
-        rows = rows[~done]
+        rows = rows.compress(~done)
     t_lo, t_hi = np.empty(n), np.empty(n)
     parallel_for(final_roots, n, ta, tb, ga, gb, t, t_lo, t_hi, p0, axis, grid.h, pts)
     return t, t_lo, t_hi, pts
