@@ -12,7 +12,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "blobtree"
 
 #: Layers from the bottom up; a module may import its own layer and those below.
 LAYERS = [
-    {"jit", "files", "checks", "parallel"},
+    {"jit", "files", "checks", "parallel", "allocator"},
     {"geometry", "fields", "spiral", "texture", "textures", "nodes"},
     {"io", "models"},
     {"engine"},
