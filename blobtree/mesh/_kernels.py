@@ -338,57 +338,61 @@ def _fill_block(
     cell_vid = scratch[28:]
     v0 = ov
     oi, oj, ok = origins[blk, 0], origins[blk, 1], origins[blk, 2]
-    for c in range(box_start[blk] * fine**3, box_start[blk + 1] * fine**3):
-        b, d = divmod(c, fine**3)  # box b's cell d
-        i = boxes[b, 0] + d // (fine * fine)
-        j = boxes[b, 1] + d // fine % fine
-        k = boxes[b, 2] + d % fine
-        if not _load_cell(values, blk, i, j, k, iso, v):
-            continue
-        pos = 0
-        for q in range(_cell_loops(v, iso, nxt, loops, loop_len)):
-            n = loop_len[q]
-            for r in range(n):
-                e = loops[pos + r]
-                a = EDGE_AXIS[e]
-                li = i + EDGE_OFFSET[e, 0]
-                lj = j + EDGE_OFFSET[e, 1]
-                lk = k + EDGE_OFFSET[e, 2]
-                slot = _edge_slot(e, i, j, k, m)
-                if vid[slot] < 0:
-                    vid[slot] = ov
-                    touched[ov - v0] = slot
-                    keys[ov] = (((oi + li) * d1 + (oj + lj)) * d2 + (ok + lk)) * 3 + a
-                    f0[ov] = values[blk, li, lj, lk]
-                    f1[ov] = values[blk, li + (a == 0), lj + (a == 1), lk + (a == 2)]
-                    shared[ov] = ((a != 0 and (li == 0 or li == m - 1))
-                                  or (a != 1 and (lj == 0 or lj == m - 1))
-                                  or (a != 2 and (lk == 0 or lk == m - 1)))
-                    ov += 1
-                cell_vid[r] = vid[slot]
-            apex = _fan_apex(loops, pos, n)
-            if apex < 0:  # a centre vertex, fanned around the whole loop
-                centres[oc] = 0.0
+    for b in range(box_start[blk], box_start[blk + 1]):
+        di = dj = dk = 0  # the box's cells, x slowest (counted on: no division per cell)
+        for _ in range(fine**3):
+            i, j, k = boxes[b, 0] + di, boxes[b, 1] + dj, boxes[b, 2] + dk
+            dk += 1
+            if dk == fine:
+                dk, dj = 0, dj + 1
+                if dj == fine:
+                    dj, di = 0, di + 1
+            if not _load_cell(values, blk, i, j, k, iso, v):
+                continue
+            pos = 0
+            for q in range(_cell_loops(v, iso, nxt, loops, loop_len)):
+                n = loop_len[q]
                 for r in range(n):
-                    w = cell_vid[r]
-                    x = _edge_point(loops[pos + r], f0[w], f1[w], iso)
-                    centres[oc, 0] += (oi + i + x[0]) / n
-                    centres[oc, 1] += (oj + j + x[1]) / n
-                    centres[oc, 2] += (ok + k + x[2]) / n
-                cell_vid[n] = cell_vid[0]
-                for r in range(n):
-                    tris[ot, 0] = -1 - oc
-                    tris[ot, 1] = cell_vid[r + 1]
-                    tris[ot, 2] = cell_vid[r]
-                    ot += 1
-                oc += 1
-            else:  # reversed: the loop runs counter-clockwise about the inside
-                for r in range(1, n - 1):
-                    tris[ot, 0] = cell_vid[apex]
-                    tris[ot, 1] = cell_vid[(apex + r + 1) % n]
-                    tris[ot, 2] = cell_vid[(apex + r) % n]
-                    ot += 1
-            pos += n
+                    e = loops[pos + r]
+                    a = EDGE_AXIS[e]
+                    li = i + EDGE_OFFSET[e, 0]
+                    lj = j + EDGE_OFFSET[e, 1]
+                    lk = k + EDGE_OFFSET[e, 2]
+                    slot = _edge_slot(e, i, j, k, m)
+                    if vid[slot] < 0:
+                        vid[slot] = ov
+                        touched[ov - v0] = slot
+                        keys[ov] = (((oi + li) * d1 + (oj + lj)) * d2 + (ok + lk)) * 3 + a
+                        f0[ov] = values[blk, li, lj, lk]
+                        f1[ov] = values[blk, li + (a == 0), lj + (a == 1), lk + (a == 2)]
+                        shared[ov] = ((a != 0 and (li == 0 or li == m - 1))
+                                      or (a != 1 and (lj == 0 or lj == m - 1))
+                                      or (a != 2 and (lk == 0 or lk == m - 1)))
+                        ov += 1
+                    cell_vid[r] = vid[slot]
+                apex = _fan_apex(loops, pos, n)
+                if apex < 0:  # a centre vertex, fanned around the whole loop
+                    centres[oc] = 0.0
+                    for r in range(n):
+                        w = cell_vid[r]
+                        x = _edge_point(loops[pos + r], f0[w], f1[w], iso)
+                        centres[oc, 0] += (oi + i + x[0]) / n
+                        centres[oc, 1] += (oj + j + x[1]) / n
+                        centres[oc, 2] += (ok + k + x[2]) / n
+                    cell_vid[n] = cell_vid[0]
+                    for r in range(n):
+                        tris[ot, 0] = -1 - oc
+                        tris[ot, 1] = cell_vid[r + 1]
+                        tris[ot, 2] = cell_vid[r]
+                        ot += 1
+                    oc += 1
+                else:  # reversed: the loop runs counter-clockwise about the inside
+                    for r in range(1, n - 1):
+                        tris[ot, 0] = cell_vid[apex]
+                        tris[ot, 1] = cell_vid[(apex + r + 1) % n]
+                        tris[ot, 2] = cell_vid[(apex + r) % n]
+                        ot += 1
+                pos += n
     for q in range(ov - v0):
         vid[touched[q]] = -1
     return ov, oc, ot
