@@ -201,34 +201,34 @@ def _across(
 ):
     """For frontier boxes start..stop - 1, the kept box across each face (axis, side) with a
     crossed lattice edge, in across[q, 2 * axis + side], else -1."""
-    nbx, nby, nbz = block_of.shape
-    g = np.empty(3, dtype=np.int64)
+    s = block // fine  # boxes per side of a block
+    here = np.empty(3, dtype=np.int64)  # a box's place in its block, in boxes
+    there = np.empty(3, dtype=np.int64)  # and the box across a face
+    blk = np.empty(3, dtype=np.int64)  # the block's indices
     for q in range(start, stop):
         b = kept_slot[frontier[q]]
+        for a in range(3):
+            here[a] = kept_loc[frontier[q], a] // fine
+            blk[a] = block_origins[b, a] // block
         i, j, k = kept_loc[frontier[q], 0], kept_loc[frontier[q], 1], kept_loc[frontier[q], 2]
         for axis in range(3):
             for side in range(2):
                 across[q, 2 * axis + side] = -1
                 if not _face_crossed(values, b, i, j, k, axis, side, fine, iso):
                     continue
-                g[0] = block_origins[b, 0] + i
-                g[1] = block_origins[b, 1] + j
-                g[2] = block_origins[b, 2] + k
-                g[axis] += fine if side else -fine
-                if g[axis] < 0:
-                    continue
-                bx, by, bz = g[0] // block, g[1] // block, g[2] // block
-                if bx >= nbx or by >= nby or bz >= nbz:
-                    continue
-                nb_slot = block_of[bx, by, bz]
-                if nb_slot < 0:
-                    continue
-                across[q, 2 * axis + side] = boxmap[
-                    nb_slot,
-                    (g[0] - block_origins[nb_slot, 0]) // fine,
-                    (g[1] - block_origins[nb_slot, 1]) // fine,
-                    (g[2] - block_origins[nb_slot, 2]) // fine,
-                ]
+                for a in range(3):
+                    there[a] = here[a]
+                there[axis] += 1 if side else -1
+                other = b
+                if there[axis] < 0 or there[axis] >= s:  # in the next block along the axis
+                    blk[axis] += 1 if side else -1
+                    inside = 0 <= blk[axis] < block_of.shape[axis]
+                    other = block_of[blk[0], blk[1], blk[2]] if inside else -1
+                    blk[axis] -= 1 if side else -1
+                    if other < 0:
+                        continue
+                    there[axis] = 0 if side else s - 1
+                across[q, 2 * axis + side] = boxmap[other, there[0], there[1], there[2]]
 
 
 @nb.njit(cache=True)
