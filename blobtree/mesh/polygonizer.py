@@ -232,7 +232,7 @@ def _cull(prog, grid: _Grid, budget: int):
         # the smallest boxes reuse their ancestor's bound: it holds over them too.  (The field
         # at the centre is unclipped, as L bounds it.)
         if size == FINE:
-            lip, fc = parent_lip, prog.field(centre) if len(origins) else np.zeros(0)
+            lip, fc = parent_lip, _field_by_runs(prog, grid, origins, centre)
             below = above = np.zeros(len(fc))
         else:
             fc, lip, below, above = prog.bound_at(lo, hi, centre).T
@@ -356,15 +356,31 @@ def _sample(prog, grid: _Grid, culled):
     return values, block_origins, box_start, kept_loc.take(boxes_by_block, axis=0), regions
 
 
-def _block_regions(prog, grid: _Grid, block_origins: np.ndarray):
-    """The program specialised to each block at ``block_origins``, and then to everywhere (for
+def _block_regions(prog, grid: _Grid, block_origins: np.ndarray, anywhere: bool = True):
+    """The program specialised to each block at ``block_origins`` (and then to everywhere, for
     points that may have left their block), if the evaluator can run points grouped by
     region (``blobtree.distributed``'s cannot: None)."""
     if not hasattr(prog, "field_grouped"):
         return None
-    lo = np.concatenate([grid.origin + block_origins * grid.h, np.full((1, 3), -np.inf)])
-    hi = np.concatenate([lo[:-1] + BLOCK * grid.h, np.full((1, 3), np.inf)])
+    lo = grid.origin + block_origins * grid.h
+    hi = lo + BLOCK * grid.h
+    if anywhere:
+        lo = np.concatenate([lo, np.full((1, 3), -np.inf)])
+        hi = np.concatenate([hi, np.full((1, 3), np.inf)])
     return prog.regions(lo, hi)
+
+
+def _field_by_runs(prog, grid: _Grid, boxes: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """The field at one point inside each box at lattice origins ``boxes``: each run of boxes
+    in one block (the octree visits a block's boxes together) through that block's program."""
+    if not hasattr(prog, "field_grouped"):
+        return prog.field(points)
+    nb = grid.blocks
+    block = boxes // BLOCK
+    code = (block[:, 0] * nb[1] + block[:, 1]) * nb[2] + block[:, 2]
+    starts = np.flatnonzero(np.diff(code, prepend=code[:1] - 1))
+    regions = _block_regions(prog, grid, block.take(starts, axis=0) * BLOCK, anywhere=False)
+    return prog.field_grouped(regions, points, np.r_[starts, len(code)])
 
 
 def _field(prog, grid: _Grid, regions, points: np.ndarray, first: np.ndarray) -> np.ndarray:
