@@ -207,6 +207,11 @@ class _Grid:
         out = np.any((points < self.lo) | (points > self.hi), axis=1)
         return np.where(out, 0.0, f)
 
+    def block_code(self, block: np.ndarray) -> np.ndarray:
+        """The row-major numbers of blocks given by their indices (K, 3)."""
+        nb = self.blocks
+        return (block[:, 0] * nb[1] + block[:, 1]) * nb[2] + block[:, 2]
+
     def edge_points(self, keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Lower lattice point (V, 3) and axis (V,) of each lattice-edge key."""
         p0, axis = np.empty((len(keys), 3)), np.empty(len(keys), dtype=np.int64)
@@ -307,7 +312,7 @@ def _sample(prog, grid: _Grid, culled):
     kept, kept_value = culled
     nb = grid.blocks
     block, kept_loc = np.divmod(kept, BLOCK)  # each box's block and its place in it
-    code = (block[:, 0] * nb[1] + block[:, 1]) * nb[2] + block[:, 2]
+    code = grid.block_code(block)
     order = _by_block(code)  # the kept boxes grouped by block (see gather)
     kept_loc, kept_value, code = kept_loc.take(order, axis=0), kept_value[order], code[order]
     present = np.zeros(int(np.prod(nb)), dtype=bool)
@@ -375,9 +380,8 @@ def _field_by_runs(prog, grid: _Grid, boxes: np.ndarray, points: np.ndarray) -> 
     in one block (the octree visits a block's boxes together) through that block's program."""
     if not hasattr(prog, "field_grouped"):
         return prog.field(points)
-    nb = grid.blocks
     block = boxes // BLOCK
-    code = (block[:, 0] * nb[1] + block[:, 1]) * nb[2] + block[:, 2]
+    code = grid.block_code(block)
     starts = np.flatnonzero(np.diff(code, prepend=code[:1] - 1))
     regions = _block_regions(prog, grid, block.take(starts, axis=0) * BLOCK, anywhere=False)
     return prog.field_grouped(regions, points, np.r_[starts, len(code)])
