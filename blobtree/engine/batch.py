@@ -265,8 +265,9 @@ def _eval_runs(t0, t1, start, gc, gb, params, first, xyz, depth, slab, vals):
 
 
 @kernel(nogil=True)
-def _unsort(j0, j1, vals, pos, out_f, out_g, out_c):
-    """Results back in the points' order (outside the grid: a zero field, grey)."""
+def unsort(j0, j1, vals, pos, out_f, out_g, out_c):
+    """Results back in the points' order, point j's from vals[pos[j]] (pos[j] < 0, outside the
+    grid: a zero field, grey), split into the field, gradient and colour."""
     full = vals.shape[1] == 7
     for j in range(j0, j1):
         q = pos[j]
@@ -275,16 +276,6 @@ def _unsort(j0, j1, vals, pos, out_f, out_g, out_c):
             for r in range(3):
                 out_g[j, r] = vals[q, 1 + r] if q >= 0 else 0.0
                 out_c[j, r] = vals[q, 4 + r] if q >= 0 else DEFAULT_GREY
-
-
-@kernel(nogil=True)
-def columns(j0, j1, vals, out_f, out_g, out_c):
-    """Rows j0..j1 - 1 of vals (M, 7) split into the field, gradient and colour."""
-    for j in range(j0, j1):
-        out_f[j] = vals[j, 0]
-        for r in range(3):
-            out_g[j, r] = vals[j, 1 + r]
-            out_c[j, r] = vals[j, 4 + r]
 
 
 #: Points partitioned at a time (scratch: ~60 bytes per point of a block).
@@ -317,7 +308,7 @@ def eval_sorted(grid: Grid, params: np.ndarray, depth: int, P: np.ndarray, out_f
         k = int(first[-1])
         parallel_for(_bucket_scatter, nparts, Q, cell, offsets, xyz, pos, parts=nparts)
         eval_grouped(grid, params, depth, xyz[:k], first, vals)
-        parallel_for(_unsort, len(Q), vals, pos, out_f[a:a + BLOCK], out_g[a:a + BLOCK],
+        parallel_for(unsort, len(Q), vals, pos, out_f[a:a + BLOCK], out_g[a:a + BLOCK],
                      out_c[a:a + BLOCK])
 
 

@@ -295,8 +295,9 @@ def _sample(prog, grid: _Grid, culled):
     """From the culled boxes (the finest kept boxes' lattice origins and centre values, as
     :func:`_cull` returns them): lattice values (B, BLOCK+1, BLOCK+1, BLOCK+1) of the blocks
     holding kept boxes, the blocks' origins (B, 3), and the boxes whose cells to contour:
-    local coordinates (A, 3), those of block q at ``box_start[q]:box_start[q + 1]`` (returned
-    as ``values, origins, box_start, boxes``).
+    local coordinates (A, 3), those of block q at ``box_start[q]:box_start[q + 1]``, and the
+    program specialised to each block, then to everywhere (:func:`_block_regions`; returned as
+    ``values, origins, box_start, boxes, regions``).
 
     1. Every kept box is sampled at its corners and centre (a body-centred lattice of spacing
        ``FINE``: any part of the solid or of its complement that holds a ball of diameter
