@@ -223,9 +223,49 @@ def test_specialised_program_is_short_for_a_small_cell():
     oc, ob, ol = np.empty((n, 4), dtype=np.int64), np.empty((n, 6)), np.empty(n)
     lo, hi = prog.bounds
     c = 0.5 * (lo + hi) + np.array([0.9, 0.0, 0.0])
-    m = S.specialize(prog.code, prog.boxes, prog.lips, c - 0.05, c + 0.05, oc, ob, ol,
-                     S.specialize_work(prog.code))
+    m = S.specialize(prog.code, prog.params, prog.boxes, prog.lips, c - 0.05, c + 0.05, oc, ob,
+                     ol, S.specialize_work(prog.code))
     assert 0 < m < n // 10
+
+
+
+def _specialised(prog, lo, hi):
+    """The program specialised to [lo, hi], as (code, boxes)."""
+    from blobtree.engine import specialize as S
+
+    n = len(prog)
+    oc, ob, ol = np.empty((n, 4), dtype=np.int64), np.empty((n, 6)), np.empty(n)
+    m = S.specialize(prog.code, prog.params, prog.boxes, prog.lips, np.asarray(lo, float),
+                     np.asarray(hi, float), oc, ob, ol, S.specialize_work(prog.code))
+    return oc[:m], ob[:m]
+
+
+def test_specialisation_drops_what_only_an_outer_box_reaches():
+    """A ball whose box, not whose support, reaches the region's corner, and a bent cone turned
+    45 degrees whose outer box, not its own frame's, holds the region, are dropped; points there
+    still evaluate as the reference says (0 from both)."""
+    from blobtree.engine import interp
+    from blobtree.engine.dispatch import OP_ZERO
+
+    ball = bt.Point(radius=1.0)
+    spine = bt.Cone((0.0, 0.0, 0.0), (4.0, 0.0, 0.0), radius_a=0.3, radius_b=0.1).bend(
+        30.0, 4.0, axis="x", toward="y").rotate("z", 45.0)
+    for tree, lo, hi in ((ball, (0.8, 0.8, 0.8), (0.95, 0.95, 0.95)),
+                         (spine, (2.2, 0.2, -0.1), (2.4, 0.4, 0.1))):
+        prog = tree.program()
+        box_lo, box_hi = prog.boxes[0, :3], prog.boxes[0, 3:]
+        assert np.all(box_lo <= lo) and np.all(hi <= box_hi), "the outer box holds the region"
+        code, boxes = _specialised(prog, lo, hi)
+        assert len(code) == 1 and code[0, 0] == OP_ZERO
+        P = np.random.default_rng(0).uniform(lo, hi, (200, 3))
+        assert np.all(tree.reference(P)[0] == 0.0)
+        vs, ps = interp.scratch(prog.depth)
+        assert all(interp.eval_point(code, prog.params, boxes, *p, 0, vs, ps) == 0.0 for p in P)
+        # a region around a point where the field is not 0 keeps the primitive
+        Q = sample_points(tree, 2000, 1)
+        near = Q[np.argmax(tree.reference(Q)[0])]
+        code, _ = _specialised(prog, near - 0.05, near + 0.05)
+        assert len(code) >= 1 and OP_ZERO not in code[:, 0]
 
 
 @given(trees(), st.integers(0, 2**31), st.floats(0.02, 0.6))

@@ -252,7 +252,7 @@ def _prim_bound(op, p, o, lip, ray, pp, lox, loy, loz, hix, hiy, hiz, ox, oy, oz
 
 
 @kernel
-def _carry(kind, op, p, o, lip, lox, loy, loz, hix, hiy, hiz, scratch):
+def carry(kind, op, p, o, lip, lox, loy, loz, hix, hiy, hiz, scratch):
     """The region [lo, hi] carried into a PUSHPT's frame (the box around its affine image) or
     through a WARP (a cube around the warped centre: the query map moves points by at most
     its stretch ``lip`` times the distance); ``scratch``: a point stack the warp may not use."""
@@ -264,6 +264,19 @@ def _carry(kind, op, p, o, lip, lox, loy, loz, hix, hiy, hiz, scratch):
     reach = lip * math.sqrt(ex * ex + ey * ey + ez * ez)
     wx, wy, wz = apply_warp(op, p, o, cx, cy, cz, scratch, 0, 0)
     return wx - reach, wy - reach, wz - reach, wx + reach, wy + reach, wz + reach
+
+
+@kernel
+def support_misses(code, p, lips, i, lox, loy, loz, hix, hiy, hiz):
+    """Is primitive i zero all over the box [lo, hi] (its frame's coordinates)?  True when its
+    bound on |grad f| over the box is 0 (its field is constant there) and it is zero at the
+    box's centre: a tighter test than its box's (a ball's support against a box, a cone's
+    distance from its axis)."""
+    op, o = code[i, 0], code[i, 1]
+    cx, cy, cz, hx, hy, hz = map_box(p, o, lox, loy, loz, hix, hiy, hiz)
+    if prim_lipschitz(op, p, o, lips[i], cx, cy, cz, hx, hy, hz) > 0.0:
+        return False
+    return prim_s(op, p, o, cx, cy, cz)[0] >= 1.0
 
 
 @kernel
@@ -316,7 +329,7 @@ def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox,
                 vs[pp, 1], vs[pp, 2], vs[pp, 3] = lox, loy, loz
                 vs[pp, 4], vs[pp, 5], vs[pp, 6] = hix, hiy, hiz
             if kind != K_BOX:
-                lox, loy, loz, hix, hiy, hiz = _carry(kind, op, params, code[i, 1], lips[i],
+                lox, loy, loz, hix, hiy, hiz = carry(kind, op, params, code[i, 1], lips[i],
                                                       lox, loy, loz, hix, hiy, hiz, vs)
             i += 1
         elif kind == K_POPPT:
@@ -393,7 +406,7 @@ def _bounded(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox, o
             elif kind == K_WARP:
                 px, py, pz = apply_warp(op, p, o, px, py, pz, ps, 0, 0)
             if kind != K_BOX:
-                lox, loy, loz, hix, hiy, hiz = _carry(kind, op, p, o, lips[i], lox, loy, loz,
+                lox, loy, loz, hix, hiy, hiz = carry(kind, op, p, o, lips[i], lox, loy, loz,
                                                       hix, hiy, hiz, ps)
             i += 1
         elif kind == K_POPPT:  # frame distances are at most lips[i] times the outer ones

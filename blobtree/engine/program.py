@@ -122,9 +122,10 @@ class Program:
             size = ext / dims
             pad = 1e-9 * float(ext.max())
             rlo, rhi = S.cell_boxes(lo, size, dims, pad)
-            start = S.region_starts(self.code, self.boxes, self.lips, rlo, rhi)
+            start = S.region_starts(self.code, self.params, self.boxes, self.lips, rlo, rhi)
             if start[-1] <= GRID_MAX_INSTRUCTIONS or cells <= GRID_MIN_CELLS:
-                cells = S.specialize_regions(self.code, self.boxes, self.lips, rlo, rhi, start)
+                cells = S.specialize_regions(self.code, self.params, self.boxes, self.lips, rlo,
+                                             rhi, start)
                 return Grid(*cells.arrays, lo.copy(), size, dims)
             cells //= 4
 
@@ -135,7 +136,8 @@ class Program:
         lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
         corners = np.abs(np.concatenate([lo.ravel(), hi.ravel()]))
         pad = 1e-9 * float(np.max(corners[np.isfinite(corners)], initial=1.0))
-        return S.specialize_regions(self.code, self.boxes, self.lips, lo - pad, hi + pad)
+        return S.specialize_regions(self.code, self.params, self.boxes, self.lips, lo - pad,
+                                    hi + pad)
 
     def field_grouped(self, regions: Regions, P: np.ndarray, first: np.ndarray) -> np.ndarray:
         """Field values (N,) of (N, 3) points grouped by region: P[first[r]:first[r + 1]] all

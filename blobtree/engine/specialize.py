@@ -18,6 +18,7 @@ the 126-blob whorl a point then meets ~8 instructions instead of ~26.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -28,6 +29,7 @@ from .dispatch import (
     K_OPERATOR,
     K_PRIMITIVE,
     K_PUSHPT,
+    K_WARP,
     K_ZERO,
     KEEP,
     KILL,
@@ -36,6 +38,7 @@ from .dispatch import (
     ZERO_REST,
     kind_of,
 )
+from .interp import carry, misses, support_misses
 
 
 @kernel
@@ -48,6 +51,31 @@ def _misses(boxes, i, lo, hi):
 def _contains(boxes, i, lo, hi):
     return (boxes[i, 0] <= lo[0] and boxes[i, 1] <= lo[1] and boxes[i, 2] <= lo[2]
             and hi[0] <= boxes[i, 3] and hi[1] <= boxes[i, 4] and hi[2] <= boxes[i, 5])
+
+
+@kernel
+def _frame_misses(code, params, boxes, lips, i, lo, hi):
+    """Does the box [lo, hi] miss the warp entered at PUSHPT i once carried into its frame?
+    The PUSHPT's own box is the warp's box in the outer frame, an axis-aligned box around a
+    turned one; carried in, the region meets the warp's box and then, carried through the warp,
+    its child's box in their own axes (a long bent spine's box hides most of what its outer
+    box holds).  An unbounded region misses nothing."""
+    for k in range(3):
+        if not (math.isfinite(lo[k]) and math.isfinite(hi[k])):
+            return False
+    lox, loy, loz, hix, hiy, hiz = carry(K_PUSHPT, code[i, 0], params, code[i, 1], lips[i],
+                                         lo[0], lo[1], lo[2], hi[0], hi[1], hi[2], boxes)
+    w = i + 1
+    if misses(boxes, w, lox, loy, loz, hix, hiy, hiz):
+        return True
+    if kind_of(code[w, 0]) != K_WARP:
+        return False
+    lox, loy, loz, hix, hiy, hiz = carry(K_WARP, code[w, 0], params, code[w, 1], lips[w],
+                                         lox, loy, loz, hix, hiy, hiz, boxes)
+    if misses(boxes, w + 1, lox, loy, loz, hix, hiy, hiz):
+        return True
+    return kind_of(code[w + 1, 0]) == K_PRIMITIVE and support_misses(
+        code, params, lips, w + 1, lox, loy, loz, hix, hiy, hiz)
 
 
 @kernel
@@ -85,7 +113,7 @@ def specialize_work(code):
 
 
 @kernel
-def specialize(code, boxes, lips, lo, hi, oc, ob, ol, work):
+def specialize(code, params, boxes, lips, lo, hi, oc, ob, ol, work):
     """Write the program specialised to the box [lo, hi] into oc, ob, ol; return its length.
 
     One pass over the program with a stack of open subtrees (a BOX head, its children, then the
@@ -131,7 +159,8 @@ def specialize(code, boxes, lips, lo, hi, oc, ob, ol, work):
             drop = top >= 0 and _rule(code[f_end[top] - 1, 0], f_first[top]) != KEEP
             op = code[i, 0]
             if kind_of(op) == K_PRIMITIVE or kind_of(op) == K_ZERO:
-                if kind_of(op) == K_ZERO or _misses(boxes, i, lo, hi):
+                if kind_of(op) == K_ZERO or _misses(boxes, i, lo, hi) or support_misses(
+                        code, params, lips, i, lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]):
                     z = True
                     if not drop:
                         n = _zero(oc, ob, ol, n)
@@ -139,7 +168,9 @@ def specialize(code, boxes, lips, lo, hi, oc, ob, ol, work):
                     n = _copy(code, boxes, lips, i, oc, ob, ol, n)
                 i += 1
                 have = True
-            elif _misses(boxes, i, lo, hi):
+            elif _misses(boxes, i, lo, hi) or (
+                    kind_of(op) == K_PUSHPT and _frame_misses(code, params, boxes, lips, i, lo,
+                                                              hi)):
                 z = True
                 if not drop:
                     n = _zero(oc, ob, ol, n)
@@ -213,7 +244,7 @@ def cell_boxes(lo, size, dims, pad) -> tuple[np.ndarray, np.ndarray]:
 
 
 @kernel(nrt=True, nogil=True)
-def _specialize_part(start, stop, code, boxes, lips, rlo, rhi, lengths, gc, gb, fill):
+def _specialize_part(start, stop, code, params, boxes, lips, rlo, rhi, lengths, gc, gb, fill):
     """Specialise to regions start..stop - 1 (boxes rlo, rhi): record the lengths (``fill``
     False), or copy the programs to rows lengths[r]:lengths[r] + m (``fill`` True; lengths then
     holds the starts)."""
@@ -223,7 +254,7 @@ def _specialize_part(start, stop, code, boxes, lips, rlo, rhi, lengths, gc, gb, 
     ol = np.empty(n)
     work = specialize_work(code)
     for r in range(start, stop):
-        m = specialize(code, boxes, lips, rlo[r], rhi[r], oc, ob, ol, work)
+        m = specialize(code, params, boxes, lips, rlo[r], rhi[r], oc, ob, ol, work)
         if not fill:
             lengths[r + 1] = m
             continue
@@ -235,27 +266,28 @@ def _specialize_part(start, stop, code, boxes, lips, rlo, rhi, lengths, gc, gb, 
                 gb[a + i, q] = ob[i, q]
 
 
-def region_starts(code, boxes, lips, rlo, rhi) -> np.ndarray:
+def region_starts(code, params, boxes, lips, rlo, rhi) -> np.ndarray:
     """Where each region's specialised program would start (R + 1 entries; the last is the
     total length): the counting pass of :func:`specialize_regions`, cheap enough to try grids
     of several sizes."""
     lengths = np.zeros(len(rlo) + 1, dtype=np.int64)
-    parallel_for(_specialize_part, len(rlo), code, boxes, lips, rlo, rhi, lengths,
+    parallel_for(_specialize_part, len(rlo), code, params, boxes, lips, rlo, rhi, lengths,
                  np.empty((0, 4), dtype=np.int64), np.empty((0, 6)), False)
     return np.cumsum(lengths)
 
 
-def specialize_regions(code, boxes, lips, rlo, rhi, start=None) -> Regions:
+def specialize_regions(code, params, boxes, lips, rlo, rhi, start=None) -> Regions:
     """The program specialised to each box (rlo[r], rhi[r]) ((R, 3) each; ``start`` from
     :func:`region_starts` if already counted).  (Batch evaluation reads no Lipschitz bounds,
     so the regions keep none.)"""
     rlo = np.ascontiguousarray(rlo, dtype=np.float64)
     rhi = np.ascontiguousarray(rhi, dtype=np.float64)
     if start is None:
-        start = region_starts(code, boxes, lips, rlo, rhi)
+        start = region_starts(code, params, boxes, lips, rlo, rhi)
     total = int(start[-1])
     gc, gb = np.empty((total, 4), dtype=np.int64), np.empty((total, 6))
-    parallel_for(_specialize_part, len(rlo), code, boxes, lips, rlo, rhi, start, gc, gb, True)
+    parallel_for(_specialize_part, len(rlo), code, params, boxes, lips, rlo, rhi, start, gc, gb,
+                 True)
     return Regions(start, gc, gb)
 
 

@@ -281,7 +281,8 @@ def _pixel(code, params, boxes, lips, local, llo, lhi, cam, lights, lo, hi, widt
 
 
 @kernel
-def _localize(code, boxes, lips, cam, ax, ay, az, tan_a, t_a, t_b, oc, ob, ol, lo, hi, work):
+def _localize(code, params, boxes, lips, cam, ax, ay, az, tan_a, t_a, t_b, oc, ob, ol, lo, hi,
+              work):
     """Specialise the program to the box around the cone (apex: the eye, unit axis a, half-angle
     atan(tan_a)) between axis depths t_a and t_b; return (code, boxes, lips) views."""
     r = t_b * tan_a
@@ -290,7 +291,7 @@ def _localize(code, boxes, lips, cam, ax, ay, az, tan_a, t_a, t_b, oc, ob, ol, l
         b = cam[k] + t_b * (ax, ay, az)[k]
         lo[k] = min(a, b) - r
         hi[k] = max(a, b) + r
-    n = specialize(code, boxes, lips, lo, hi, oc, ob, ol, work)
+    n = specialize(code, params, boxes, lips, lo, hi, oc, ob, ol, work)
     return oc[:n], ob[:n], ol[:n]
 
 
@@ -320,7 +321,7 @@ def _render_blocks(code, params, boxes, lips, cam, lights, lo, hi, width, height
         blk = (code, boxes, lips)
         if tb < np.inf:
             t_blk = min(tb + LOCAL_SPAN * tb * btan, t_far)
-            blk = _localize(code, boxes, lips, cam, bax, bay, baz, btan,
+            blk = _localize(code, params, boxes, lips, cam, bax, bay, baz, btan,
                             tb / np.sqrt(1.0 + btan * btan), t_blk, boc, bob, bol, rlo, rhi, work)
         for sy0 in range(by0, by1, SUB):
             for sx0 in range(bx0, bx1, SUB):
@@ -343,7 +344,7 @@ def _render_blocks(code, params, boxes, lips, cam, lights, lo, hi, width, height
                     if ts < np.inf:
                         t_local = ts + LOCAL_SPAN * ts * tan_a
                         seg0 = PIXEL_SPAN * ts * tan_a
-                        local = _localize(code, boxes, lips, cam, ax, ay, az, tan_a,
+                        local = _localize(code, params, boxes, lips, cam, ax, ay, az, tan_a,
                                           ts / np.sqrt(1.0 + tan_a * tan_a), t_local, oc, ob,
                                           ol, rlo, rhi, work)
                 for py in range(max(sy0, y0), min(sy1, y1)):
