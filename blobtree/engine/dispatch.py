@@ -121,6 +121,8 @@ def _kernels() -> dict[str, object]:
             if fn is not None:
                 out[f"k{OPCODE[cls]}_{field}"] = (kernel(fn.py_func, inline="always")
                                                   if field in INLINE_KERNELS else fn)
+        if cls.KIND == "primitive":  # batch loops inline s: the gradient they drop is not computed
+            out[f"k{OPCODE[cls]}_s_inline"] = kernel(cls.KERNELS.s.py_func, inline="always")
     return out
 
 
@@ -129,7 +131,7 @@ _DEFAULT_LIPSCHITZ = ("s = K.s(p, o, cx, cy, cz)[0]\n"
                       "return distance_bound(p, o, lip, s, hx, hy, hz)")
 _ROWS = """for k in range(nb):
     qx, qy, qz = map_point(p, o, pts[pp, 0, k], pts[pp, 1, k], pts[pp, 2, k])
-    s = K.s(p, o, qx, qy, qz)[0]
+    s = K.s_inline(p, o, qx, qy, qz)[0]
     vs[sp, k] = fo(fid, min(s, 1.0)) if s < 1.0 else 0.0
 return"""
 _WARP_ROWS = """for m in range(nb):
