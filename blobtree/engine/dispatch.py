@@ -108,9 +108,10 @@ def _dispatcher(name: str, args: str, kind: str, case: str, miss: str) -> str:
 #: Kernels compiled into their dispatcher (the rest are called): the bounds the ray tracer asks
 #: for at every step, and the operators, whose work is small next to a call.
 INLINE_KERNELS = ("along", "lipschitz", "combine", "rows", "bound", "map")
-#: Dispatchers compiled into their one caller.
+#: Dispatchers compiled into their one caller (``warp_map``'s, ``interp.apply_warp``, is itself
+#: compiled into its callers).
 INLINE_DISPATCHERS = ("prim_s", "prim_along", "prim_lipschitz", "combine", "combine_rows",
-                      "op_bound")
+                      "op_bound", "warp_map")
 
 
 def _kernels() -> dict[str, object]:
