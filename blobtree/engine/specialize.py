@@ -59,10 +59,7 @@ def _frame_misses(code, params, boxes, lips, i, lo, hi):
     The PUSHPT's own box is the warp's box in the outer frame, an axis-aligned box around a
     turned one; carried in, the region meets the warp's box and then, carried through the warp,
     its child's box in their own axes (a long bent spine's box hides most of what its outer
-    box holds).  An unbounded region misses nothing."""
-    for k in range(3):
-        if not (math.isfinite(lo[k]) and math.isfinite(hi[k])):
-            return False
+    box holds).  The region must be bounded."""
     lox, loy, loz, hix, hiy, hiz = carry(K_PUSHPT, code[i, 0], params, code[i, 1], lips[i],
                                          lo[0], lo[1], lo[2], hi[0], hi[1], hi[2], boxes)
     w = i + 1
@@ -76,6 +73,16 @@ def _frame_misses(code, params, boxes, lips, i, lo, hi):
         return True
     return kind_of(code[w + 1, 0]) == K_PRIMITIVE and support_misses(
         code, params, lips, w + 1, lox, loy, loz, hix, hiy, hiz)
+
+
+@kernel
+def _finite(lo, hi):
+    """Are the region's corners finite?  (Carried into frames and tested against supports, an
+    unbounded region would give NaN centres; it meets everything anyway.)"""
+    for k in range(3):
+        if not (math.isfinite(lo[k]) and math.isfinite(hi[k])):
+            return False
+    return True
 
 
 @kernel
@@ -128,6 +135,7 @@ def specialize(code, params, boxes, lips, lo, hi, oc, ob, ol, work):
     f_dead = work[5]
     f_drop = work[6]    # may this subtree vanish if zero?
     ncode = code.shape[0]
+    tight = _finite(lo, hi)  # also test frames and supports, beyond the boxes
     top = -1
     n = 0
     i = 0
@@ -159,8 +167,9 @@ def specialize(code, params, boxes, lips, lo, hi, oc, ob, ol, work):
             drop = top >= 0 and _rule(code[f_end[top] - 1, 0], f_first[top]) != KEEP
             op = code[i, 0]
             if kind_of(op) == K_PRIMITIVE or kind_of(op) == K_ZERO:
-                if kind_of(op) == K_ZERO or _misses(boxes, i, lo, hi) or support_misses(
-                        code, params, lips, i, lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]):
+                if kind_of(op) == K_ZERO or _misses(boxes, i, lo, hi) or (
+                        tight and support_misses(code, params, lips, i, lo[0], lo[1], lo[2],
+                                                 hi[0], hi[1], hi[2])):
                     z = True
                     if not drop:
                         n = _zero(oc, ob, ol, n)
@@ -168,9 +177,8 @@ def specialize(code, params, boxes, lips, lo, hi, oc, ob, ol, work):
                     n = _copy(code, boxes, lips, i, oc, ob, ol, n)
                 i += 1
                 have = True
-            elif _misses(boxes, i, lo, hi) or (
-                    kind_of(op) == K_PUSHPT and _frame_misses(code, params, boxes, lips, i, lo,
-                                                              hi)):
+            elif _misses(boxes, i, lo, hi) or (tight and kind_of(op) == K_PUSHPT and _frame_misses(
+                    code, params, boxes, lips, i, lo, hi)):
                 z = True
                 if not drop:
                     n = _zero(oc, ob, ol, n)
