@@ -215,20 +215,6 @@ def test_specialised_difference_keeps_its_cap():
     np.testing.assert_allclose(tree.program().evaluate(P)[0], ref, rtol=1e-9, atol=1e-12)
 
 
-def test_specialised_program_is_short_for_a_small_cell():
-    from blobtree.engine import specialize as S
-
-    prog = bt.models.whorl126().program()
-    n = len(prog)
-    oc, ob, ol = np.empty((n, 4), dtype=np.int64), np.empty((n, 6)), np.empty(n)
-    lo, hi = prog.bounds
-    c = 0.5 * (lo + hi) + np.array([0.9, 0.0, 0.0])
-    m = S.specialize(prog.code, prog.params, prog.boxes, prog.lips, c - 0.05, c + 0.05, oc, ob,
-                     ol, S.specialize_work(prog.code))
-    assert 0 < m < n // 10
-
-
-
 def _specialised(prog, lo, hi):
     """The program specialised to [lo, hi], as (code, boxes)."""
     from blobtree.engine import specialize as S
@@ -238,6 +224,14 @@ def _specialised(prog, lo, hi):
     m = S.specialize(prog.code, prog.params, prog.boxes, prog.lips, np.asarray(lo, float),
                      np.asarray(hi, float), oc, ob, ol, S.specialize_work(prog.code))
     return oc[:m], ob[:m]
+
+
+def test_specialised_program_is_short_for_a_small_cell():
+    prog = bt.models.whorl126().program()
+    lo, hi = prog.bounds
+    c = 0.5 * (lo + hi) + np.array([0.9, 0.0, 0.0])
+    code, _ = _specialised(prog, c - 0.05, c + 0.05)
+    assert 0 < len(code) < len(prog) // 10
 
 
 def test_specialisation_drops_what_only_an_outer_box_reaches():

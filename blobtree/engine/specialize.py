@@ -43,8 +43,7 @@ from .interp import carry, misses, support_misses
 
 @kernel
 def _misses(boxes, i, lo, hi):
-    return (hi[0] < boxes[i, 0] or hi[1] < boxes[i, 1] or hi[2] < boxes[i, 2]
-            or lo[0] > boxes[i, 3] or lo[1] > boxes[i, 4] or lo[2] > boxes[i, 5])
+    return misses(boxes, i, lo[0], lo[1], lo[2], hi[0], hi[1], hi[2])
 
 
 @kernel
@@ -60,6 +59,8 @@ def _frame_misses(code, params, boxes, lips, i, lo, hi):
     turned one; carried in, the region meets the warp's box and then, carried through the warp,
     its child's box in their own axes (a long bent spine's box hides most of what its outer
     box holds).  The region must be bounded."""
+    # (``boxes`` stands in for carry's point stack: a region carried through a warp maps one
+    # point in mode 0, which reads no stack and writes none)
     lox, loy, loz, hix, hiy, hiz = carry(K_PUSHPT, code[i, 0], params, code[i, 1], lips[i],
                                          lo[0], lo[1], lo[2], hi[0], hi[1], hi[2], boxes)
     w = i + 1
