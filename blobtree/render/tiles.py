@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..checks import Integer, Number
+from ..engine.batch import SUB as BATCH
 from ..engine.specialize import specialize
 from ..jit import kernel
 from .camera import Camera, as_color
@@ -31,7 +32,7 @@ from .shade import (
     shade,
     srgb_to_linear_array,
 )
-from .trace import clip_box, march_cone, trace_from_local
+from .trace import clip_box, march_cone, trace, trace_packet
 
 #: Largest image side accepted (a 16384^2 image is 805 MB of RGB).
 MAX_SIDE = 16384
@@ -41,8 +42,9 @@ MAX_SAMPLES = 1024
 EPS_SCENE = 1e-6
 #: Shadow-ray start offset along the normal, as a fraction of the scene's diagonal.
 SHADOW_OFFSET = 1e-4
-#: Side in pixels of the cones marched before single rays (see ``_render_blocks``).
-BLOCK, SUB = 16, 4
+#: Side in pixels of the cones marched before the rays (see ``_render_blocks``); a SUB cone's rays
+#: are traced together (at most ``batch.SUB`` of them: one batch of the engine).
+BLOCK, SUB = 16, 8
 #: Length of the stretch of a SUB cone (in cone radii) its specialised program covers.
 LOCAL_SPAN = 32.0
 #: First candidate segment of a ray, as a fraction of its chord through the bounds box.
@@ -174,8 +176,17 @@ def trace_rect(prog, cam: np.ndarray, lights: np.ndarray, settings: RenderSettin
                    s.shadows, bg, bg_bytes, s.packed_look(diag),
                    EPS_SCENE * diag, eps_rel, SHADOW_OFFSET * diag, s.seed, x0, y0, x1, y1, gx0,
                    gy0, nbx, nby, t_near, t_far, out, np.empty(3), *scratch, *local, *block,
-                   np.empty(3), np.empty(3), np.empty((7, n + 1), dtype=np.int64))
+                   np.empty(3), np.empty(3), np.empty((7, n + 1), dtype=np.int64),
+                   _packet_scratch(prog.depth))
     return out
+
+
+def _packet_scratch(depth: int) -> tuple:
+    """The scratch of ``_sub_block`` for a cone of SUB^2 rays (see there)."""
+    rays = SUB * SUB
+    return (np.empty((rays, 4)), np.empty((3, rays)), np.empty((rays, 3)), np.empty(rays),
+            np.empty((5, rays)), np.empty((2, rays), dtype=np.int64),
+            np.zeros((depth + 1, 3, BATCH)), np.empty((depth, BATCH)), np.empty((depth, 7)))
 
 
 @kernel
@@ -230,54 +241,68 @@ def _block_start(code, params, boxes, lips, cam, width, height, bx0, by0, bx1, b
 
 
 @kernel
-def _pixel(code, params, boxes, lips, local, llo, lhi, cam, lights, lo, hi, width, height,
-           samples, shadows, bg, bg_bytes, look, eps_abs, eps_rel, shadow_eps, seed, px, py,
-           t_start, t_local, seg0, out, iy, ix, rgb, vstack, pstack):
-    """Trace and shade pixel (px, py) with every ray starting at depth t_start (finite); write
-    its sRGB bytes into out[iy, ix] (``bg``, ``bg_bytes``: each row's backdrop).  Up to depth
-    t_local the rays stay in the box [llo, lhi] the program ``local = (code, boxes, lips)`` is
-    specialised to; beyond it they use the full one.
-    ``seg0`` caps a ray's first candidate segment."""
+def _sub_block(code, params, boxes, lips, local, llo, lhi, cam, lights, lo, hi, width, height,
+               samples, shadows, bg, look, eps_abs, eps_rel, shadow_eps, seed, sx0, sy0, sx1,
+               sy1, x0, y0, x1, y1, t_start, t_local, seg0, packet, rgb, vstack, pstack):
+    """Trace and shade the pixels [sx0, sx1) x [sy0, sy1) (a cone's), every ray starting at
+    depth t_start (finite); the linear RGB of those inside the rectangle [x0, x1) x [y0, y1)
+    summed over the samples into acc[k, 0:3] and the number of rays that hit into acc[k, 3]
+    (k = the pixel's row-major place in the cone; the backdrop ``bg`` where a ray misses).
+    Up to depth t_local the rays stay in the box [llo, lhi] the program ``local = (code, boxes,
+    lips)`` is specialised to; there all the cone's rays are traced together
+    (:func:`trace_packet`, first candidate segment ``seg0``), whatever the rectangle, so no
+    pixel depends on the tiling; beyond it each ray of the rectangle goes on alone on the full
+    program.  ``packet``: the scratch ``trace_rect`` allocates (acc, then the
+    rays' start, end and exit depths, directions and hits, then :func:`trace_packet`'s)."""
+    acc, rays, D, hit, pk, ids, pts, vs, tmp = packet
+    nx = sx1 - sx0
+    n = nx * (sy1 - sy0)
     m = int(np.ceil(np.sqrt(samples)))
     rows = (samples + m - 1) // m
-    acc_r = acc_g = acc_b = 0.0
-    hits = 0
+    t0, t_end, t1 = rays[0], rays[1], rays[2]
+    for k in range(n):
+        acc[k, 0] = acc[k, 1] = acc[k, 2] = acc[k, 3] = 0.0
     for s in range(samples):
-        if samples == 1:
-            u = 0.5
-            v = 0.5
-        else:
-            u = (s % m + _uniform(seed, px, py, s, 0)) / m
-            v = (s // m + _uniform(seed, px, py, s, 1)) / rows
-        dx, dy, dz = _ray(cam, width, height, px + u, py + v)
-        t0, t1 = clip_box(cam[0], cam[1], cam[2], dx, dy, dz, lo, hi, t_start, np.inf)
-        t, inside, _, _ = trace_from_local(code, params, boxes, lips, local, cam[0], cam[1], cam[2],
-                                     dx, dy, dz, t0, t_local, t1, eps_abs, eps_rel,
-                                     min(DELTA0 * (t1 - t0), seg0) + eps_abs, DELTA0, eps_abs,
-                                     vstack, pstack)
-        if t < 0.0:
-            acc_r += bg[py, 0]
-            acc_g += bg[py, 1]
-            acc_b += bg[py, 2]
-            continue
-        hits += 1
-        # the program and box around the hit: the local ones, or the full program and bounds
-        near, nlo, nhi = local, llo, lhi
-        if not inside:
-            near, nlo, nhi = (code, boxes, lips), lo, hi
-        shade(code, params, boxes, lips, near, nlo, nhi, cam[0] + t * dx, cam[1] + t * dy,
-              cam[2] + t * dz, dx, dy, dz, lights, lo, hi, shadows, look,
-              max(shadow_eps, eps_rel * t), rgb, vstack, pstack)
-        acc_r += rgb[0]
-        acc_g += rgb[1]
-        acc_b += rgb[2]
-    if hits == 0:
-        for c in range(3):
-            out[iy, ix, c] = bg_bytes[py, c]
-    else:
-        out[iy, ix, 0] = linear_to_srgb_byte(acc_r / samples)
-        out[iy, ix, 1] = linear_to_srgb_byte(acc_g / samples)
-        out[iy, ix, 2] = linear_to_srgb_byte(acc_b / samples)
+        delta0 = seg0
+        for k in range(n):
+            px, py = sx0 + k % nx, sy0 + k // nx
+            if samples == 1:
+                u = 0.5
+                v = 0.5
+            else:
+                u = (s % m + _uniform(seed, px, py, s, 0)) / m
+                v = (s // m + _uniform(seed, px, py, s, 1)) / rows
+            D[k, 0], D[k, 1], D[k, 2] = _ray(cam, width, height, px + u, py + v)
+            t0[k], t1[k] = clip_box(cam[0], cam[1], cam[2], D[k, 0], D[k, 1], D[k, 2], lo, hi,
+                                    t_start, np.inf)
+            t_end[k] = min(t1[k], t_local)
+            if t0[k] <= t1[k]:
+                delta0 = min(delta0, DELTA0 * (t1[k] - t0[k]))
+        trace_packet(local[0], params, local[1], local[2], cam[0], cam[1], cam[2], D, n, t0,
+                     t_end, eps_abs, eps_rel, delta0 + eps_abs, hit, pk, ids, pts, vs, tmp,
+                     vstack, pstack)
+        for k in range(n):
+            px, py = sx0 + k % nx, sy0 + k // nx
+            if px < x0 or px >= x1 or py < y0 or py >= y1:
+                continue
+            t = hit[k]
+            near, nlo, nhi = local, llo, lhi
+            if t < 0.0 and t0[k] <= t1[k] and t_local < t1[k]:  # on past the local stretch
+                near, nlo, nhi = (code, boxes, lips), lo, hi
+                ta = max(t0[k], t_local)
+                t = trace(code, params, boxes, lips, cam[0], cam[1], cam[2], D[k, 0], D[k, 1],
+                          D[k, 2], ta, t1[k], eps_abs, eps_rel,
+                          DELTA0 * (t1[k] - ta) + eps_abs, np.inf, vstack, pstack)[0]
+            if t < 0.0:
+                for c in range(3):
+                    acc[k, c] += bg[py, c]
+                continue
+            shade(code, params, boxes, lips, near, nlo, nhi, cam[0] + t * D[k, 0],
+                  cam[1] + t * D[k, 1], cam[2] + t * D[k, 2], D[k, 0], D[k, 1], D[k, 2], lights,
+                  lo, hi, shadows, look, max(shadow_eps, eps_rel * t), rgb, vstack, pstack)
+            for c in range(3):
+                acc[k, c] += rgb[c]
+            acc[k, 3] += 1.0
 
 
 @kernel
@@ -299,15 +324,16 @@ def _localize(code, params, boxes, lips, cam, ax, ay, az, tan_a, t_a, t_b, oc, o
 def _render_blocks(code, params, boxes, lips, cam, lights, lo, hi, width, height, samples,
                    shadows, bg, bg_bytes, look, eps_abs, eps_rel, shadow_eps, seed, x0, y0, x1,
                    y1, gx0, gy0, nbx, nby, t_near, t_far, out, rgb, vstack, pstack, oc, ob, ol,
-                   boc, bob, bol, rlo, rhi, work):
+                   boc, bob, bol, rlo, rhi, work, packet):
     """Pixels [x0, x1) x [y0, y1), on one core without the GIL, on buffers ``trace_rect``
     allocated: the nbx x nby blocks of BLOCK^2 pixels from block (gx0, gy0), each first marched
     as one cone, then as cones of SUB^2 pixels (on the program specialised to the block cone's
     stretch past where it stopped, then on the whole program beyond it); each of those
     specialises the program to the stretch of its cone just past where it stopped, then traces
-    its rays one by one.  Compiled without reference counting (like every kernel on the way
-    from here to the field: numba's atomic counts on the shared program arrays cost a quarter
-    of the time with two threads), so nothing here allocates or keeps an array."""
+    its rays together there (:func:`_sub_block`).  Compiled without reference counting (like
+    every kernel on the way from here to the field: numba's atomic counts on the shared program
+    arrays cost a quarter of the time with two threads), so nothing here allocates or keeps an
+    array."""
     for b in range(nbx * nby):
         bx0 = (gx0 + b % nbx) * BLOCK
         by0 = (gy0 + b // nbx) * BLOCK
@@ -347,13 +373,18 @@ def _render_blocks(code, params, boxes, lips, cam, lights, lo, hi, width, height
                         local = _localize(code, params, boxes, lips, cam, ax, ay, az, tan_a,
                                           ts / np.sqrt(1.0 + tan_a * tan_a), t_local, oc, ob,
                                           ol, rlo, rhi, work)
+                if ts < np.inf:
+                    _sub_block(code, params, boxes, lips, local, rlo, rhi, cam, lights, lo, hi,
+                               width, height, samples, shadows, bg, look, eps_abs, eps_rel,
+                               shadow_eps, seed, sx0, sy0, sx1, sy1, x0, y0, x1, y1, ts,
+                               t_local, seg0, packet, rgb, vstack, pstack)
+                acc = packet[0]
                 for py in range(max(sy0, y0), min(sy1, y1)):
                     for px in range(max(sx0, x0), min(sx1, x1)):
-                        if ts == np.inf:  # the cone proved every ray misses
+                        k = (py - sy0) * (sx1 - sx0) + px - sx0
+                        if ts == np.inf or acc[k, 3] == 0.0:  # no ray of the pixel hit
                             for c in range(3):
                                 out[py - y0, px - x0, c] = bg_bytes[py, c]
                             continue
-                        _pixel(code, params, boxes, lips, local, rlo, rhi, cam, lights, lo, hi,
-                               width, height, samples, shadows, bg, bg_bytes, look, eps_abs,
-                               eps_rel, shadow_eps, seed, px, py, ts,
-                               t_local, seg0, out, py - y0, px - x0, rgb, vstack, pstack)
+                        for c in range(3):
+                            out[py - y0, px - x0, c] = linear_to_srgb_byte(acc[k, c] / samples)

@@ -15,7 +15,9 @@ miss the segment, L is 0 and the whole segment is skipped.  Steps never fall bel
 feature thinner than eps along the ray may be skipped: eps is a fraction of a pixel for camera
 rays), and once a step lands inside (f >= 0.5) the root is refined by the Illinois variant of
 regula falsi, which keeps the root bracketed.  :func:`march_cone` applies the same bound to a
-whole cone of camera rays at once, so a block of pixels skips empty space together.
+whole cone of camera rays at once, so a block of pixels skips empty space together, and
+:func:`trace_packet` traces the rays of such a block together: one bound serves them all, and
+each step evaluates all their points in one batch.
 
 All kernels take the program arrays ``code, params, boxes, lips`` of ``Program.arrays`` and the
 per-thread scratch of ``interp.scratch``.
@@ -26,6 +28,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..engine import interp
+from ..engine.batch import eval_rows
 from ..jit import kernel
 
 ISO = 0.5
@@ -96,14 +99,16 @@ def _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, ta, fa, tb, fb, tol, vs
 
 @kernel
 def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, eps_rel,
-          delta0, vstack, pstack):
+          delta0, low, vstack, pstack):
     """(First t in [t0, t1] where the field reaches ISO along the unit-direction ray, or -1;
-    the largest rise of the field seen along the way, and the t where it peaked).
+    the largest rise of the field seen along the way, the t where it peaked, and the lowest
+    f - ISO seen).
 
     The rise is the most the field climbed above its lowest value before (on the samples the
-    tracer takes): 0 for a ray leaving a lone convex surface, positive where the ray passed
-    another surface, which it came nearest around the peak (soft shadows use it).  A ray that
-    starts inside (f >= ISO at t0) hits at t0.
+    tracer takes; ``low``: the lowest f - ISO the ray met before t0, inf if none): 0 for a ray
+    leaving a lone convex surface, positive where the ray passed another surface, which it came
+    nearest around the peak (soft shadows use it).  A ray that starts inside (f >= ISO at t0)
+    hits at t0.
     ``eps_abs + eps_rel * t`` is the smallest step.  One Lipschitz bound serves every step
     inside its candidate segment, unless the steps it allows are short next to what is left of
     the segment (the bound is loose there): then a shorter segment takes a new bound.
@@ -116,9 +121,9 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
                                                 min(delta, t1 - t), values, vstack, pstack)
     f -= ISO
     if f >= 0.0:
-        return t, 0.0, t
-    low = f
-    rise = 0.0
+        return t, 0.0, t, low
+    rise = max(f - low, 0.0)
+    low = min(low, f)
     t_peak = t
     while t < t1:
         ts = t
@@ -147,7 +152,7 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
             if fn >= 0.0:
                 t_hit = _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, t, f, tn, fn,
                                 REFINE_TOL * eps, vstack, pstack)
-                return t_hit, fn - low, t_hit
+                return t_hit, fn - low, t_hit, low
             low = min(low, fn)
             if fn - low > rise:
                 rise = fn - low
@@ -156,7 +161,7 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
             f = fn
             if new_segment:
                 break
-    return -1.0, rise, t_peak
+    return -1.0, rise, t_peak, low
 
 
 @kernel(inline="always")
@@ -170,19 +175,126 @@ def trace_from_local(code, params, boxes, lips, local, ox, oy, oz, dx, dy, dz, t
     lcode, lboxes, llips = local
     rise = 0.0
     t_peak = t0
+    low = np.inf  # the lowest f - ISO so far: the rise goes on across t_split
     if t0 <= min(t1, t_split):
-        t, rise, t_peak = trace(lcode, params, lboxes, llips, ox, oy, oz, dx, dy, dz, t0,
-                                min(t1, t_split), eps_abs, eps_rel, delta_local, vstack, pstack)
+        t, rise, t_peak, low = trace(lcode, params, lboxes, llips, ox, oy, oz, dx, dy, dz, t0,
+                                     min(t1, t_split), eps_abs, eps_rel, delta_local, low,
+                                     vstack, pstack)
         if t >= 0.0:
             return t, True, rise, t_peak
     if t_split < t1:
         t0 = max(t0, t_split)
-        t, more, t_more = trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1,
-                                eps_abs, eps_rel, frac * (t1 - t0) + pad, vstack, pstack)
+        t, more, t_more, _ = trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1,
+                                   eps_abs, eps_rel, frac * (t1 - t0) + pad, low, vstack,
+                                   pstack)
         if more > rise:
             rise, t_peak = more, t_more
         return t, False, rise, t_peak
     return -1.0, False, rise, t_peak
+
+
+@kernel(inline="always")
+def _packet_field(code, params, boxes, ox, oy, oz, D, at, ids, m, pts, vs, tmp):
+    """The field at o + at[k] D[k] for the m rays k = ids[:m], into vs[0, :m] (one batch)."""
+    for j in range(m):
+        k = ids[j]
+        pts[0, 0, j] = ox + at[k] * D[k, 0]
+        pts[0, 1, j] = oy + at[k] * D[k, 1]
+        pts[0, 2, j] = oz + at[k] * D[k, 2]
+    eval_rows(code, params, boxes, 0, code.shape[0], pts, m, vs, tmp)
+
+
+@kernel
+def trace_packet(code, params, boxes, lips, ox, oy, oz, D, n, t, t_end, eps_abs, eps_rel, delta0,
+                 out, scratch, ids, pts, vs, tmp, vstack, pstack):
+    """Segment tracing of the rays o + t D[k], k < n (unit directions, one origin), together,
+    each over [t[k], t_end[k]] (none where t[k] > t_end[k]): out[k] is its first hit, or -1
+    with t[k] where it stopped (t_end[k] if it got there).  Each ray steps as :func:`trace`
+    does, but one bound serves them all: over the box around every ray's candidate segment
+    (value-aware at one of their points where the root is CSG), and each step evaluates the
+    new points of all the rays in one batch (``batch.eval_rows``: SIMD over rays).  A segment
+    ends for all once every ray has crossed it (the next is ``SEGMENT_GROWTH`` times the longest
+    crossing), or once some ray's steps are short next to what is left of it (the next is
+    ``GROWTH`` times the shortest step).  Scratch: ``scratch`` (5, n) floats, ``ids`` (2, n)
+    ints; pts, vs, tmp as ``eval_rows`` takes them (n at most their columns)."""
+    values = interp.bounds_use_values(code)
+    f, tn, last, ts, te = scratch[0], scratch[1], scratch[2], scratch[3], scratch[4]
+    act, mov = ids[0], ids[1]
+    m = 0
+    for k in range(n):
+        out[k] = -1.0
+        if t[k] <= t_end[k]:
+            act[m] = k
+            m += 1
+    _packet_field(code, params, boxes, ox, oy, oz, D, t, act, m, pts, vs, tmp)
+    a = 0
+    for j in range(m):
+        k = act[j]
+        f[k] = vs[0, j] - ISO
+        if f[k] >= 0.0:
+            out[k] = t[k]
+        elif t[k] < t_end[k]:
+            act[a] = k
+            a += 1
+    delta = delta0
+    while a > 0:
+        lox = loy = loz = np.inf
+        hix = hiy = hiz = -np.inf
+        for j in range(a):
+            k = act[j]
+            ts[k] = t[k]
+            te[k] = min(t[k] + delta, t_end[k])
+            for tt in (t[k], te[k]):
+                x, y, z = ox + tt * D[k, 0], oy + tt * D[k, 1], oz + tt * D[k, 2]
+                lox, loy, loz = min(lox, x), min(loy, y), min(loz, z)
+                hix, hiy, hiz = max(hix, x), max(hiy, y), max(hiz, z)
+        k = act[0]
+        _, lam, _, _ = interp.bound_box_at(code, params, boxes, lips, lox, loy, loz, hix, hiy,
+                                           hiz, ox + t[k] * D[k, 0], oy + t[k] * D[k, 1],
+                                           oz + t[k] * D[k, 2], values, vstack, pstack)
+        creep = False
+        while not creep:  # lam bounds |df/dt| on every segment: step each ray on inside its own
+            mv = 0
+            for j in range(a):
+                k = act[j]
+                if t[k] < te[k]:
+                    step = te[k] - t[k]
+                    if lam > 0.0:
+                        step = min(step, -f[k] / lam)
+                    tn[k] = min(t[k] + max(step, eps_abs + eps_rel * t[k]), te[k])
+                    mov[mv] = k
+                    mv += 1
+            if mv == 0:
+                break
+            _packet_field(code, params, boxes, ox, oy, oz, D, tn, mov, mv, pts, vs, tmp)
+            for j in range(mv):
+                k = mov[j]
+                fn = vs[0, j] - ISO
+                if fn >= 0.0:
+                    out[k] = _refine(code, params, boxes, ox, oy, oz, D[k, 0], D[k, 1], D[k, 2],
+                                     t[k], f[k], tn[k], fn,
+                                     REFINE_TOL * (eps_abs + eps_rel * t[k]), vstack, pstack)
+                    continue
+                last[k] = tn[k] - t[k]
+                t[k] = tn[k]
+                f[k] = fn
+                if te[k] - t[k] > REBOUND * last[k]:
+                    creep = True
+            b = 0  # keep the rays still going
+            for j in range(a):
+                k = act[j]
+                if out[k] < 0.0 and t[k] < t_end[k]:
+                    act[b] = k
+                    b += 1
+            a = b
+        if creep:
+            delta = np.inf
+            for j in range(a):
+                delta = min(delta, GROWTH * last[act[j]])
+        else:
+            delta = 0.0
+            for j in range(a):
+                delta = max(delta, SEGMENT_GROWTH * (t[act[j]] - ts[act[j]]))
 
 
 @kernel
@@ -244,6 +356,6 @@ def intersect_rays(start, stop, code, params, boxes, lips, depth, origins, direc
         if t0 > t1:
             continue
         t = trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, 0.0,
-                  0.05 * (t1 - t0) + eps_abs, vstack, pstack)[0]
+                  0.05 * (t1 - t0) + eps_abs, np.inf, vstack, pstack)[0]
         if t >= 0.0:
             out[i] = t / norm
