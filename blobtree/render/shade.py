@@ -11,7 +11,7 @@ from ..checks import Number
 from ..engine import interp
 from ..jit import kernel
 from .camera import Camera, as_color, as_vec3
-from .trace import clip_box, trace_from_local
+from .trace import LOW, PEAK, RISE, clip_box, trace_packet
 
 #: Row layout of the packed light array: kind (0 directional, 1 point), xyz, linear rgb.
 DIRECTIONAL, POINT = 0.0, 1.0
@@ -145,18 +145,26 @@ def _smoothstep(x):
     return x * x * (3.0 - 2.0 * x)
 
 
-@kernel
-def shade(code, params, boxes, lips, local, llo, lhi, px, py, pz, vx, vy, vz, lights, lo, hi,
-          shadows, look, shadow_eps, out, vstack, pstack):
-    """Linear RGB at surface point p seen along view direction v (unit, toward the surface),
-    written into out[0:3].  ``local = (code, boxes, lips)`` is the program specialised to the box
-    [llo, lhi] around p (or the full program and its bounds): it gives the normal and albedo,
-    and carries each shadow ray while it stays in that box; the full program takes it on.
+#: Rows of a packet's ray table (``tiles._packet_scratch``), for the ray being traced (camera
+#: or shadow ray): where it is, where this trace ends, where it leaves the scene's bounds, where
+#: it started, its smallest step, the trace's result (-1: no hit), where it leaves the local
+#: box (a shadow ray; -inf if it starts outside); then the camera ray's hit (-1: none), whether
+#: the hit came from the local program (1) or the full one (0), and whether the light being
+#: shaded may reach the hit (1: it faces the light and no shadow ray found it blocked yet).
+T, T_END, T1, T0, EPS, OUT, SPLIT, HIT, INSIDE, REACHED = range(10)
+#: Columns of a packet's surface table: a hit's outward unit normal, linear albedo and colour.
+NX, NY, NZ, AR, AG, AB, CR, CG, CB = range(9)
 
-    ``look`` (see :data:`AMBIENT` ...): the ambient light, brighter from above by ``SKY`` and
-    darkened by the field's :func:`occlusion`; Blinn-Phong lights of angular radius
-    atan(``LIGHT_TAN``), whose shadow rays, when they miss, still darken by :func:`penumbra`."""
-    interp.eval_point(local[0], params, local[1], px, py, pz, 2, vstack, pstack)
+
+@kernel(inline="always")
+def _surface(code, params, boxes, near, nlo, nhi, px, py, pz, vx, vy, vz, look, row, vstack,
+             pstack):
+    """The outward normal, albedo and ambient-lit colour at surface point p seen along view
+    direction v (unit, toward the surface), into ``row`` (columns :data:`NX` ...).  ``near`` is
+    the program specialised to the box [nlo, nhi] around p (or the full program and its
+    bounds).  ``look``: the ambient light, brighter from above by ``SKY`` and darkened by the
+    field's :func:`occlusion`."""
+    interp.eval_point(near[0], params, near[1], px, py, pz, 2, vstack, pstack)
     # The field decreases outward, so the outward normal is -grad f.
     nx, ny, nz = -vstack[0, 1], -vstack[0, 2], -vstack[0, 3]
     nn = np.sqrt(nx * nx + ny * ny + nz * nz)
@@ -164,60 +172,120 @@ def shade(code, params, boxes, lips, local, llo, lhi, px, py, pz, vx, vy, vz, li
         nx, ny, nz = nx / nn, ny / nn, nz / nn
     else:
         nx, ny, nz = -vx, -vy, -vz
-    ar = srgb_to_linear(min(max(vstack[0, 4], 0.0), 1.0))
-    ag = srgb_to_linear(min(max(vstack[0, 5], 0.0), 1.0))
-    ab = srgb_to_linear(min(max(vstack[0, 6], 0.0), 1.0))
+    row[NX], row[NY], row[NZ] = nx, ny, nz
+    for c in range(3):
+        row[AR + c] = srgb_to_linear(min(max(vstack[0, 4 + c], 0.0), 1.0))
     ambient = look[AMBIENT] * (1.0 - look[SKY] * 0.5 * (1.0 - ny))
     if look[OCCLUSION] > 0.0:
         ambient *= 1.0 - look[OCCLUSION] * occlusion(
-            code, params, boxes, local, llo, lhi, px, py, pz, nx, ny, nz, nn,
+            code, params, boxes, near, nlo, nhi, px, py, pz, nx, ny, nz, nn,
             look[OCCLUSION_RADIUS], vstack, pstack)
-    specular, shininess, light_tan = look[SPECULAR], look[SHININESS], look[LIGHT_TAN]
-    r = ambient * ar
-    g = ambient * ag
-    b = ambient * ab
-    for k in range(lights.shape[0]):
-        if lights[k, 0] == DIRECTIONAL:
-            lx, ly, lz = lights[k, 1], lights[k, 2], lights[k, 3]
-            dist = np.inf
-        else:
-            lx, ly, lz = lights[k, 1] - px, lights[k, 2] - py, lights[k, 3] - pz
-            dist = np.sqrt(lx * lx + ly * ly + lz * lz)
-            if dist == 0.0:
+    for c in range(3):
+        row[CR + c] = ambient * row[AR + c]
+
+
+@kernel(inline="always")
+def _toward(lights, j, px, py, pz):
+    """Unit direction from p toward light j, and its distance (inf for a directional light; 0
+    where p is the light's position)."""
+    if lights[j, 0] == DIRECTIONAL:
+        return lights[j, 1], lights[j, 2], lights[j, 3], np.inf
+    lx, ly, lz = lights[j, 1] - px, lights[j, 2] - py, lights[j, 3] - pz
+    dist = np.sqrt(lx * lx + ly * ly + lz * lz)
+    if dist == 0.0:
+        return 0.0, 0.0, 0.0, 0.0
+    return lx / dist, ly / dist, lz / dist, dist
+
+
+@kernel(inline="always")
+def _add_light(lights, j, look, row, lx, ly, lz, vx, vy, vz, lit):
+    """Blinn-Phong: light j from unit direction l, seen along v, times ``lit``, added to the
+    colour in ``row``."""
+    ndl = row[NX] * lx + row[NY] * ly + row[NZ] * lz
+    hx, hy, hz = lx - vx, ly - vy, lz - vz
+    hn = np.sqrt(hx * hx + hy * hy + hz * hz)
+    spec = 0.0
+    if hn > 0.0:
+        ndh = (row[NX] * hx + row[NY] * hy + row[NZ] * hz) / hn
+        if ndh > 0.0:
+            spec = look[SPECULAR] * ndh ** look[SHININESS]
+    for c in range(3):
+        row[CR + c] += lit * lights[j, 4 + c] * (row[AR + c] * ndl + spec)
+
+
+@kernel
+def shade_packet(code, params, boxes, lips, local, llo, lhi, n, lights, lo, hi, shadows, look,
+                 shadow_eps, eps_rel, packet, vstack, pstack):
+    """Linear RGB at the hits of the n camera rays O[k] + t D[k] of a packet, into columns
+    CR, CG, CB of its surface table (``packet``: see ``tiles._packet_scratch``; the hits in its
+    ray table).  ``local = (code, boxes, lips)`` is the program specialised to the box [llo,
+    lhi] the rays crossed: it gives the normals and albedos of the hits it found, and carries
+    the shadow rays that start in that box while they stay there; the full program takes them
+    on.  ``look`` (see :data:`AMBIENT` ...): Blinn-Phong lights of angular radius
+    atan(``LIGHT_TAN``) besides the ambient light.  The shadow rays toward each light start
+    just off the surface along the normal (so they cannot re-hit it) and are traced together
+    (:func:`trace_packet`); those that miss still darken by :func:`penumbra`."""
+    _, rays, O, D, SO, SD, surf, pk, ids, pts, vs, tmp = packet
+    for k in range(n):
+        t = rays[HIT, k]
+        if t >= 0.0:
+            near, nlo, nhi = local, llo, lhi
+            if rays[INSIDE, k] == 0.0:
+                near, nlo, nhi = (code, boxes, lips), lo, hi
+            _surface(code, params, boxes, near, nlo, nhi, O[k, 0] + t * D[k, 0],
+                     O[k, 1] + t * D[k, 1], O[k, 2] + t * D[k, 2], D[k, 0], D[k, 1], D[k, 2],
+                     look, surf[k], vstack, pstack)
+    for j in range(lights.shape[0]):
+        d_local = d_full = np.inf  # the first candidate segments of the two stretches
+        for k in range(n):
+            t = rays[HIT, k]
+            rays[REACHED, k] = 0.0
+            rays[T, k], rays[T_END, k], rays[SPLIT, k] = 1.0, 0.0, -np.inf  # (no shadow ray)
+            if t < 0.0:
                 continue
-            lx, ly, lz = lx / dist, ly / dist, lz / dist
-        ndl = nx * lx + ny * ly + nz * lz
-        if ndl <= 0.0:
-            continue
-        lit = 1.0
+            px, py, pz = O[k, 0] + t * D[k, 0], O[k, 1] + t * D[k, 1], O[k, 2] + t * D[k, 2]
+            lx, ly, lz, dist = _toward(lights, j, px, py, pz)
+            if dist == 0.0 or surf[k, NX] * lx + surf[k, NY] * ly + surf[k, NZ] * lz <= 0.0:
+                continue
+            rays[REACHED, k] = 1.0
+            SD[k, 0], SD[k, 1], SD[k, 2] = lx, ly, lz
+            se = max(shadow_eps, eps_rel * t)
+            SO[k, 0] = px + se * surf[k, NX]
+            SO[k, 1] = py + se * surf[k, NY]
+            SO[k, 2] = pz + se * surf[k, NZ]
+            t0, t1 = clip_box(SO[k, 0], SO[k, 1], SO[k, 2], lx, ly, lz, lo, hi, 0.0, dist)
+            rays[T0, k], rays[T1, k], rays[EPS, k] = t0, t1, 0.5 * se
+            pk[LOW, k], pk[RISE, k], pk[PEAK, k] = np.inf, 0.0, t0
+            if not shadows or t0 > t1:
+                continue
+            ta, tb = clip_box(SO[k, 0], SO[k, 1], SO[k, 2], lx, ly, lz, llo, lhi, t0, t1)
+            if ta == t0 and ta <= tb:  # starts in the local box
+                rays[SPLIT, k] = tb
+                rays[T, k], rays[T_END, k] = t0, min(t1, tb)
+                d_local = min(d_local, 0.05 * (tb - t0) + se)
         if shadows:
-            # Start the shadow ray off the surface along the normal, so it cannot re-hit it.
-            sx = px + shadow_eps * nx
-            sy = py + shadow_eps * ny
-            sz = pz + shadow_eps * nz
-            t0, t1 = clip_box(sx, sy, sz, lx, ly, lz, lo, hi, 0.0, dist)
-            if t0 <= t1:
-                ta, tb = clip_box(sx, sy, sz, lx, ly, lz, llo, lhi, t0, t1)
-                t_split = tb if ta == t0 and ta <= tb else -np.inf  # starts in the local box?
-                t, _, rise, t_peak = trace_from_local(
-                    code, params, boxes, lips, local, sx, sy, sz, lx, ly, lz, t0, t_split, t1,
-                    0.5 * shadow_eps, 0.0, 0.05 * (tb - t0) + shadow_eps, 0.05, shadow_eps,
-                    vstack, pstack)
-                if t >= 0.0:
-                    continue
-                if light_tan > 0.0 and rise > 0.0:
-                    lit = penumbra(code, params, boxes, sx + t_peak * lx, sy + t_peak * ly,
-                                   sz + t_peak * lz, t_peak, light_tan, vstack, pstack)
-        hx, hy, hz = lx - vx, ly - vy, lz - vz
-        hn = np.sqrt(hx * hx + hy * hy + hz * hz)
-        spec = 0.0
-        if hn > 0.0:
-            ndh = (nx * hx + ny * hy + nz * hz) / hn
-            if ndh > 0.0:
-                spec = specular * ndh ** shininess
-        r += lit * lights[k, 4] * (ar * ndl + spec)
-        g += lit * lights[k, 5] * (ag * ndl + spec)
-        b += lit * lights[k, 6] * (ab * ndl + spec)
-    out[0] = r
-    out[1] = g
-    out[2] = b
+            trace_packet(local[0], params, local[1], local[2], SO, SD, n, rays[T],
+                         rays[T_END], rays[EPS], 0.0, d_local, rays[OUT], pk, ids, pts, vs, tmp,
+                         vstack, pstack)
+            for k in range(n):  # then on the full program, past the local box
+                if rays[OUT, k] >= 0.0:
+                    rays[REACHED, k] = 0.0  # in shadow
+                rays[T, k], rays[T_END, k] = 1.0, 0.0
+                if rays[REACHED, k] == 1.0 and rays[SPLIT, k] < rays[T1, k] and (
+                        rays[T0, k] <= rays[T1, k]):
+                    rays[T, k] = max(rays[T0, k], rays[SPLIT, k])
+                    rays[T_END, k] = rays[T1, k]
+                    d_full = min(d_full, 0.05 * (rays[T1, k] - rays[T, k]) + 2.0 * rays[EPS, k])
+            trace_packet(code, params, boxes, lips, SO, SD, n, rays[T], rays[T_END], rays[EPS],
+                         0.0, d_full, rays[OUT], pk, ids, pts, vs, tmp, vstack, pstack)
+        for k in range(n):
+            if rays[REACHED, k] == 0.0 or (shadows and rays[OUT, k] >= 0.0):
+                continue
+            lit = 1.0
+            if shadows and look[LIGHT_TAN] > 0.0 and pk[RISE, k] > 0.0:
+                tp = pk[PEAK, k]
+                lit = penumbra(code, params, boxes, SO[k, 0] + tp * SD[k, 0],
+                               SO[k, 1] + tp * SD[k, 1], SO[k, 2] + tp * SD[k, 2], tp,
+                               look[LIGHT_TAN], vstack, pstack)
+            _add_light(lights, j, look, surf[k], SD[k, 0], SD[k, 1], SD[k, 2], D[k, 0], D[k, 1],
+                       D[k, 2], lit)

@@ -20,19 +20,28 @@ from ..jit import kernel
 from .camera import Camera, as_color
 from .shade import (
     AMBIENT,
+    CR,
+    EPS,
+    HIT,
+    INSIDE,
     LIGHT_TAN,
     OCCLUSION,
     OCCLUSION_RADIUS,
+    OUT,
     SHININESS,
     SKY,
     SPECULAR,
+    T0,
+    T1,
+    T_END,
     Light,
+    T,
     linear_to_srgb_byte,
     pack_lights,
-    shade,
+    shade_packet,
     srgb_to_linear_array,
 )
-from .trace import clip_box, march_cone, trace, trace_packet
+from .trace import LOW, RISE, clip_box, march_cone, trace_packet
 
 #: Largest image side accepted (a 16384^2 image is 805 MB of RGB).
 MAX_SIDE = 16384
@@ -175,18 +184,21 @@ def trace_rect(prog, cam: np.ndarray, lights: np.ndarray, settings: RenderSettin
     _render_blocks(code, params, boxes, lips, cam, lights, lo, hi, s.width, s.height, s.samples,
                    s.shadows, bg, bg_bytes, s.packed_look(diag),
                    EPS_SCENE * diag, eps_rel, SHADOW_OFFSET * diag, s.seed, x0, y0, x1, y1, gx0,
-                   gy0, nbx, nby, t_near, t_far, out, np.empty(3), *scratch, *local, *block,
+                   gy0, nbx, nby, t_near, t_far, out, *scratch, *local, *block,
                    np.empty(3), np.empty(3), np.empty((7, n + 1), dtype=np.int64),
                    _packet_scratch(prog.depth))
     return out
 
 
 def _packet_scratch(depth: int) -> tuple:
-    """The scratch of ``_sub_block`` for a cone of SUB^2 rays (see there)."""
-    rays = SUB * SUB
-    return (np.empty((rays, 4)), np.empty((3, rays)), np.empty((rays, 3)), np.empty(rays),
-            np.empty((5, rays)), np.empty((2, rays), dtype=np.int64),
-            np.zeros((depth + 1, 3, BATCH)), np.empty((depth, BATCH)), np.empty((depth, 7)))
+    """The scratch of ``_sub_block`` for a cone of n = SUB^2 rays: the pixels' sums (n, 4); the
+    ray table (``shade.T`` ...); the camera rays' origins and directions, the shadow rays'
+    (n, 3 each); the surface table (``shade.NX`` ...); then :func:`trace_packet`'s."""
+    n = SUB * SUB
+    return (np.empty((n, 4)), np.empty((10, n)), np.empty((n, 3)), np.empty((n, 3)),
+            np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 9)), np.empty((8, n)),
+            np.empty((2, n), dtype=np.int64), np.zeros((depth + 1, 3, BATCH)),
+            np.empty((depth, BATCH)), np.empty((depth, 7)))
 
 
 @kernel
@@ -243,23 +255,21 @@ def _block_start(code, params, boxes, lips, cam, width, height, bx0, by0, bx1, b
 @kernel
 def _sub_block(code, params, boxes, lips, local, llo, lhi, cam, lights, lo, hi, width, height,
                samples, shadows, bg, look, eps_abs, eps_rel, shadow_eps, seed, sx0, sy0, sx1,
-               sy1, x0, y0, x1, y1, t_start, t_local, seg0, packet, rgb, vstack, pstack):
+               sy1, t_start, t_local, seg0, packet, vstack, pstack):
     """Trace and shade the pixels [sx0, sx1) x [sy0, sy1) (a cone's), every ray starting at
-    depth t_start (finite); the linear RGB of those inside the rectangle [x0, x1) x [y0, y1)
-    summed over the samples into acc[k, 0:3] and the number of rays that hit into acc[k, 3]
-    (k = the pixel's row-major place in the cone; the backdrop ``bg`` where a ray misses).
-    Up to depth t_local the rays stay in the box [llo, lhi] the program ``local = (code, boxes,
-    lips)`` is specialised to; there all the cone's rays are traced together
-    (:func:`trace_packet`, first candidate segment ``seg0``), whatever the rectangle, so no
-    pixel depends on the tiling; beyond it each ray of the rectangle goes on alone on the full
-    program.  ``packet``: the scratch ``trace_rect`` allocates (acc, then the
-    rays' start, end and exit depths, directions and hits, then :func:`trace_packet`'s)."""
-    acc, rays, D, hit, pk, ids, pts, vs, tmp = packet
+    depth t_start (finite): their linear RGB summed over the samples into acc[k, 0:3] and the
+    number of rays that hit into acc[k, 3] (``packet[0]``; k = the pixel's row-major place in
+    the cone; the backdrop ``bg`` where a ray misses).  The rays are traced together
+    (:func:`trace_packet`): up to depth t_local, where they stay in the box [llo, lhi] the
+    program ``local = (code, boxes, lips)`` is specialised to, with first candidate segment
+    ``seg0``, then on the full program; and shaded together (:func:`shade_packet`).  All the
+    cone's pixels are traced and shaded, whatever part of them a tile wants, so no pixel
+    depends on the tiling.  ``packet``: the scratch ``trace_rect`` allocates."""
+    acc, rays, O, D, _, _, surf, pk, ids, pts, vs, tmp = packet
     nx = sx1 - sx0
     n = nx * (sy1 - sy0)
     m = int(np.ceil(np.sqrt(samples)))
     rows = (samples + m - 1) // m
-    t0, t_end, t1 = rays[0], rays[1], rays[2]
     for k in range(n):
         acc[k, 0] = acc[k, 1] = acc[k, 2] = acc[k, 3] = 0.0
     for s in range(samples):
@@ -272,36 +282,40 @@ def _sub_block(code, params, boxes, lips, local, llo, lhi, cam, lights, lo, hi, 
             else:
                 u = (s % m + _uniform(seed, px, py, s, 0)) / m
                 v = (s // m + _uniform(seed, px, py, s, 1)) / rows
+            O[k, 0], O[k, 1], O[k, 2] = cam[0], cam[1], cam[2]
             D[k, 0], D[k, 1], D[k, 2] = _ray(cam, width, height, px + u, py + v)
-            t0[k], t1[k] = clip_box(cam[0], cam[1], cam[2], D[k, 0], D[k, 1], D[k, 2], lo, hi,
-                                    t_start, np.inf)
-            t_end[k] = min(t1[k], t_local)
-            if t0[k] <= t1[k]:
-                delta0 = min(delta0, DELTA0 * (t1[k] - t0[k]))
-        trace_packet(local[0], params, local[1], local[2], cam[0], cam[1], cam[2], D, n, t0,
-                     t_end, eps_abs, eps_rel, delta0 + eps_abs, hit, pk, ids, pts, vs, tmp,
+            t0, t1 = clip_box(cam[0], cam[1], cam[2], D[k, 0], D[k, 1], D[k, 2], lo, hi,
+                              t_start, np.inf)
+            rays[T0, k], rays[T1, k], rays[EPS, k] = t0, t1, eps_abs
+            rays[T, k], rays[T_END, k] = t0, min(t1, t_local)
+            pk[LOW, k], pk[RISE, k] = np.inf, 0.0
+            if t0 <= t1:
+                delta0 = min(delta0, DELTA0 * (t1 - t0))
+        trace_packet(local[0], params, local[1], local[2], O, D, n, rays[T], rays[T_END],
+                     rays[EPS], eps_rel, delta0 + eps_abs, rays[OUT], pk, ids, pts, vs, tmp,
                      vstack, pstack)
+        d_full = np.inf
+        for k in range(n):  # rays that got past the local stretch go on on the full program
+            rays[HIT, k], rays[INSIDE, k] = rays[OUT, k], 1.0
+            rays[T, k], rays[T_END, k] = 1.0, 0.0
+            if rays[OUT, k] < 0.0 and rays[T0, k] <= rays[T1, k] and t_local < rays[T1, k]:
+                rays[T, k], rays[T_END, k] = max(rays[T0, k], t_local), rays[T1, k]
+                rays[INSIDE, k] = 0.0
+                d_full = min(d_full, DELTA0 * (rays[T1, k] - rays[T, k]))
+        trace_packet(code, params, boxes, lips, O, D, n, rays[T], rays[T_END], rays[EPS],
+                     eps_rel, d_full + eps_abs, rays[OUT], pk, ids, pts, vs, tmp, vstack, pstack)
         for k in range(n):
-            px, py = sx0 + k % nx, sy0 + k // nx
-            if px < x0 or px >= x1 or py < y0 or py >= y1:
-                continue
-            t = hit[k]
-            near, nlo, nhi = local, llo, lhi
-            if t < 0.0 and t0[k] <= t1[k] and t_local < t1[k]:  # on past the local stretch
-                near, nlo, nhi = (code, boxes, lips), lo, hi
-                ta = max(t0[k], t_local)
-                t = trace(code, params, boxes, lips, cam[0], cam[1], cam[2], D[k, 0], D[k, 1],
-                          D[k, 2], ta, t1[k], eps_abs, eps_rel,
-                          DELTA0 * (t1[k] - ta) + eps_abs, np.inf, vstack, pstack)[0]
-            if t < 0.0:
+            if rays[INSIDE, k] == 0.0:
+                rays[HIT, k] = rays[OUT, k]
+        shade_packet(code, params, boxes, lips, local, llo, lhi, n, lights, lo, hi, shadows,
+                     look, shadow_eps, eps_rel, packet, vstack, pstack)
+        for k in range(n):
+            if rays[HIT, k] < 0.0:
                 for c in range(3):
-                    acc[k, c] += bg[py, c]
+                    acc[k, c] += bg[sy0 + k // nx, c]
                 continue
-            shade(code, params, boxes, lips, near, nlo, nhi, cam[0] + t * D[k, 0],
-                  cam[1] + t * D[k, 1], cam[2] + t * D[k, 2], D[k, 0], D[k, 1], D[k, 2], lights,
-                  lo, hi, shadows, look, max(shadow_eps, eps_rel * t), rgb, vstack, pstack)
             for c in range(3):
-                acc[k, c] += rgb[c]
+                acc[k, c] += surf[k, CR + c]
             acc[k, 3] += 1.0
 
 
@@ -323,7 +337,7 @@ def _localize(code, params, boxes, lips, cam, ax, ay, az, tan_a, t_a, t_b, oc, o
 @kernel(nogil=True)
 def _render_blocks(code, params, boxes, lips, cam, lights, lo, hi, width, height, samples,
                    shadows, bg, bg_bytes, look, eps_abs, eps_rel, shadow_eps, seed, x0, y0, x1,
-                   y1, gx0, gy0, nbx, nby, t_near, t_far, out, rgb, vstack, pstack, oc, ob, ol,
+                   y1, gx0, gy0, nbx, nby, t_near, t_far, out, vstack, pstack, oc, ob, ol,
                    boc, bob, bol, rlo, rhi, work, packet):
     """Pixels [x0, x1) x [y0, y1), on one core without the GIL, on buffers ``trace_rect``
     allocated: the nbx x nby blocks of BLOCK^2 pixels from block (gx0, gy0), each first marched
@@ -376,8 +390,8 @@ def _render_blocks(code, params, boxes, lips, cam, lights, lo, hi, width, height
                 if ts < np.inf:
                     _sub_block(code, params, boxes, lips, local, rlo, rhi, cam, lights, lo, hi,
                                width, height, samples, shadows, bg, look, eps_abs, eps_rel,
-                               shadow_eps, seed, sx0, sy0, sx1, sy1, x0, y0, x1, y1, ts,
-                               t_local, seg0, packet, rgb, vstack, pstack)
+                               shadow_eps, seed, sx0, sy0, sx1, sy1, ts, t_local, seg0, packet,
+                               vstack, pstack)
                 acc = packet[0]
                 for py in range(max(sy0, y0), min(sy1, y1)):
                     for px in range(max(sx0, x0), min(sx1, x1)):

@@ -99,16 +99,9 @@ def _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, ta, fa, tb, fb, tol, vs
 
 @kernel
 def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, eps_rel,
-          delta0, low, vstack, pstack):
-    """(First t in [t0, t1] where the field reaches ISO along the unit-direction ray, or -1;
-    the largest rise of the field seen along the way, the t where it peaked, and the lowest
-    f - ISO seen).
-
-    The rise is the most the field climbed above its lowest value before (on the samples the
-    tracer takes; ``low``: the lowest f - ISO the ray met before t0, inf if none): 0 for a ray
-    leaving a lone convex surface, positive where the ray passed another surface, which it came
-    nearest around the peak (soft shadows use it).  A ray that starts inside (f >= ISO at t0)
-    hits at t0.
+          delta0, vstack, pstack):
+    """First t in [t0, t1] where the field reaches ISO along the unit-direction ray, or -1 (a
+    ray that starts inside, f >= ISO at t0, hits at t0).
     ``eps_abs + eps_rel * t`` is the smallest step.  One Lipschitz bound serves every step
     inside its candidate segment, unless the steps it allows are short next to what is left of
     the segment (the bound is loose there): then a shorter segment takes a new bound.
@@ -121,10 +114,7 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
                                                 min(delta, t1 - t), values, vstack, pstack)
     f -= ISO
     if f >= 0.0:
-        return t, 0.0, t, low
-    rise = max(f - low, 0.0)
-    low = min(low, f)
-    t_peak = t
+        return t
     while t < t1:
         ts = t
         te = min(t + delta, t1)
@@ -152,73 +142,58 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
             if fn >= 0.0:
                 t_hit = _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, t, f, tn, fn,
                                 REFINE_TOL * eps, vstack, pstack)
-                return t_hit, fn - low, t_hit, low
-            low = min(low, fn)
-            if fn - low > rise:
-                rise = fn - low
-                t_peak = tn
+                return t_hit
             t = tn
             f = fn
             if new_segment:
                 break
-    return -1.0, rise, t_peak, low
+    return -1.0
+
+
+#: Rows of :func:`trace_packet`'s scratch: each ray's field (minus ISO) where it is, its next
+#: point, its last step, its segment's start and end; the lowest field (minus ISO) it met, the
+#: most the field then climbed above its lowest before (on the samples taken: 0 for a ray
+#: leaving a lone convex surface, positive where it passed another surface, which it came
+#: nearest around the peak; soft shadows use it), and where it peaked.  These three carry over
+#: from one call to the next (the caller sets them to inf, 0 and anything before the first).
+F, TN, LAST, TS, TE, LOW, RISE, PEAK = range(8)
 
 
 @kernel(inline="always")
-def trace_from_local(code, params, boxes, lips, local, ox, oy, oz, dx, dy, dz, t0, t_split, t1,
-                     eps_abs, eps_rel, delta_local, frac, pad, vstack, pstack):
-    """:func:`trace` over [t0, t1] on ``local = (code, boxes, lips)``, the program specialised
-    to where the ray is up to t_split (first candidate segment ``delta_local``), then on the full
-    program beyond it (first candidate segment ``frac`` of what is left, plus ``pad``).
-    Returns (t or -1, whether the hit came from the local program, and the field's largest rise
-    and where it peaked, as :func:`trace` gives them)."""
-    lcode, lboxes, llips = local
-    rise = 0.0
-    t_peak = t0
-    low = np.inf  # the lowest f - ISO so far: the rise goes on across t_split
-    if t0 <= min(t1, t_split):
-        t, rise, t_peak, low = trace(lcode, params, lboxes, llips, ox, oy, oz, dx, dy, dz, t0,
-                                     min(t1, t_split), eps_abs, eps_rel, delta_local, low,
-                                     vstack, pstack)
-        if t >= 0.0:
-            return t, True, rise, t_peak
-    if t_split < t1:
-        t0 = max(t0, t_split)
-        t, more, t_more, _ = trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1,
-                                   eps_abs, eps_rel, frac * (t1 - t0) + pad, low, vstack,
-                                   pstack)
-        if more > rise:
-            rise, t_peak = more, t_more
-        return t, False, rise, t_peak
-    return -1.0, False, rise, t_peak
-
-
-@kernel(inline="always")
-def _packet_field(code, params, boxes, ox, oy, oz, D, at, ids, m, pts, vs, tmp):
-    """The field at o + at[k] D[k] for the m rays k = ids[:m], into vs[0, :m] (one batch)."""
+def _packet_field(code, params, boxes, O, D, at, ids, m, pts, vs, tmp):
+    """The field at O[k] + at[k] D[k] for the m rays k = ids[:m], into vs[0, :m] (one batch)."""
     for j in range(m):
         k = ids[j]
-        pts[0, 0, j] = ox + at[k] * D[k, 0]
-        pts[0, 1, j] = oy + at[k] * D[k, 1]
-        pts[0, 2, j] = oz + at[k] * D[k, 2]
+        for r in range(3):
+            pts[0, r, j] = O[k, r] + at[k] * D[k, r]
     eval_rows(code, params, boxes, 0, code.shape[0], pts, m, vs, tmp)
 
 
+@kernel(inline="always")
+def _seen(pk, k, t, f):
+    """Record the field (minus ISO) f met at t by ray k: its lowest, and its largest rise."""
+    pk[LOW, k] = min(pk[LOW, k], f)
+    if f - pk[LOW, k] > pk[RISE, k]:
+        pk[RISE, k] = f - pk[LOW, k]
+        pk[PEAK, k] = t
+
+
 @kernel
-def trace_packet(code, params, boxes, lips, ox, oy, oz, D, n, t, t_end, eps_abs, eps_rel, delta0,
-                 out, scratch, ids, pts, vs, tmp, vstack, pstack):
-    """Segment tracing of the rays o + t D[k], k < n (unit directions, one origin), together,
-    each over [t[k], t_end[k]] (none where t[k] > t_end[k]): out[k] is its first hit, or -1
-    with t[k] where it stopped (t_end[k] if it got there).  Each ray steps as :func:`trace`
-    does, but one bound serves them all: over the box around every ray's candidate segment
-    (value-aware at one of their points where the root is CSG), and each step evaluates the
-    new points of all the rays in one batch (``batch.eval_rows``: SIMD over rays).  A segment
-    ends for all once every ray has crossed it (the next is ``SEGMENT_GROWTH`` times the longest
-    crossing), or once some ray's steps are short next to what is left of it (the next is
-    ``GROWTH`` times the shortest step).  Scratch: ``scratch`` (5, n) floats, ``ids`` (2, n)
-    ints; pts, vs, tmp as ``eval_rows`` takes them (n at most their columns)."""
+def trace_packet(code, params, boxes, lips, O, D, n, t, t_end, eps, eps_rel, delta0, out, pk,
+                 ids, pts, vs, tmp, vstack, pstack):
+    """Segment tracing of the rays O[k] + t D[k], k < n (unit directions), together, each over
+    [t[k], t_end[k]] (none where t[k] > t_end[k]): out[k] is its first hit, or -1 with t[k]
+    where it stopped (t_end[k] if it got there); the field's lowest value, largest rise and
+    where it peaked go on in ``pk`` (:data:`LOW` ...).  Each ray
+    steps as :func:`trace` does (never less than eps[k] + eps_rel t), but one bound serves them
+    all: over the box around every ray's candidate segment (value-aware at one of their points
+    where the root is CSG), and each step evaluates the new points of all the rays in one batch
+    (``batch.eval_rows``: SIMD over rays).  A segment ends for all once every ray has crossed it
+    (the next is ``SEGMENT_GROWTH`` times the longest crossing), or once some ray's steps are
+    short next to what is left of it (the next is ``GROWTH`` times the shortest step).
+    Scratch: pk (8, n) floats, ids (2, n) ints; pts, vs, tmp as ``eval_rows`` takes them (n at
+    most their columns)."""
     values = interp.bounds_use_values(code)
-    f, tn, last, ts, te = scratch[0], scratch[1], scratch[2], scratch[3], scratch[4]
     act, mov = ids[0], ids[1]
     m = 0
     for k in range(n):
@@ -226,14 +201,16 @@ def trace_packet(code, params, boxes, lips, ox, oy, oz, D, n, t, t_end, eps_abs,
         if t[k] <= t_end[k]:
             act[m] = k
             m += 1
-    _packet_field(code, params, boxes, ox, oy, oz, D, t, act, m, pts, vs, tmp)
+    _packet_field(code, params, boxes, O, D, t, act, m, pts, vs, tmp)
     a = 0
     for j in range(m):
         k = act[j]
-        f[k] = vs[0, j] - ISO
-        if f[k] >= 0.0:
+        pk[F, k] = vs[0, j] - ISO
+        if pk[F, k] >= 0.0:
             out[k] = t[k]
-        elif t[k] < t_end[k]:
+            continue
+        _seen(pk, k, t[k], pk[F, k])
+        if t[k] < t_end[k]:
             act[a] = k
             a += 1
     delta = delta0
@@ -242,43 +219,46 @@ def trace_packet(code, params, boxes, lips, ox, oy, oz, D, n, t, t_end, eps_abs,
         hix = hiy = hiz = -np.inf
         for j in range(a):
             k = act[j]
-            ts[k] = t[k]
-            te[k] = min(t[k] + delta, t_end[k])
-            for tt in (t[k], te[k]):
-                x, y, z = ox + tt * D[k, 0], oy + tt * D[k, 1], oz + tt * D[k, 2]
+            pk[TS, k] = t[k]
+            pk[TE, k] = min(t[k] + delta, t_end[k])
+            for tt in (t[k], pk[TE, k]):
+                x, y, z = O[k, 0] + tt * D[k, 0], O[k, 1] + tt * D[k, 1], O[k, 2] + tt * D[k, 2]
                 lox, loy, loz = min(lox, x), min(loy, y), min(loz, z)
                 hix, hiy, hiz = max(hix, x), max(hiy, y), max(hiz, z)
         k = act[0]
         _, lam, _, _ = interp.bound_box_at(code, params, boxes, lips, lox, loy, loz, hix, hiy,
-                                           hiz, ox + t[k] * D[k, 0], oy + t[k] * D[k, 1],
-                                           oz + t[k] * D[k, 2], values, vstack, pstack)
+                                           hiz, O[k, 0] + t[k] * D[k, 0],
+                                           O[k, 1] + t[k] * D[k, 1], O[k, 2] + t[k] * D[k, 2],
+                                           values, vstack, pstack)
         creep = False
         while not creep:  # lam bounds |df/dt| on every segment: step each ray on inside its own
             mv = 0
             for j in range(a):
                 k = act[j]
-                if t[k] < te[k]:
-                    step = te[k] - t[k]
+                if t[k] < pk[TE, k]:
+                    step = pk[TE, k] - t[k]
                     if lam > 0.0:
-                        step = min(step, -f[k] / lam)
-                    tn[k] = min(t[k] + max(step, eps_abs + eps_rel * t[k]), te[k])
+                        step = min(step, -pk[F, k] / lam)
+                    pk[TN, k] = min(t[k] + max(step, eps[k] + eps_rel * t[k]), pk[TE, k])
                     mov[mv] = k
                     mv += 1
             if mv == 0:
                 break
-            _packet_field(code, params, boxes, ox, oy, oz, D, tn, mov, mv, pts, vs, tmp)
+            _packet_field(code, params, boxes, O, D, pk[TN], mov, mv, pts, vs, tmp)
             for j in range(mv):
                 k = mov[j]
                 fn = vs[0, j] - ISO
+                tn = pk[TN, k]
                 if fn >= 0.0:
-                    out[k] = _refine(code, params, boxes, ox, oy, oz, D[k, 0], D[k, 1], D[k, 2],
-                                     t[k], f[k], tn[k], fn,
-                                     REFINE_TOL * (eps_abs + eps_rel * t[k]), vstack, pstack)
+                    out[k] = _refine(code, params, boxes, O[k, 0], O[k, 1], O[k, 2], D[k, 0],
+                                     D[k, 1], D[k, 2], t[k], pk[F, k], tn, fn,
+                                     REFINE_TOL * (eps[k] + eps_rel * t[k]), vstack, pstack)
                     continue
-                last[k] = tn[k] - t[k]
-                t[k] = tn[k]
-                f[k] = fn
-                if te[k] - t[k] > REBOUND * last[k]:
+                _seen(pk, k, tn, fn)
+                pk[LAST, k] = tn - t[k]
+                t[k] = tn
+                pk[F, k] = fn
+                if pk[TE, k] - tn > REBOUND * pk[LAST, k]:
                     creep = True
             b = 0  # keep the rays still going
             for j in range(a):
@@ -290,11 +270,11 @@ def trace_packet(code, params, boxes, lips, ox, oy, oz, D, n, t, t_end, eps_abs,
         if creep:
             delta = np.inf
             for j in range(a):
-                delta = min(delta, GROWTH * last[act[j]])
+                delta = min(delta, GROWTH * pk[LAST, act[j]])
         else:
             delta = 0.0
             for j in range(a):
-                delta = max(delta, SEGMENT_GROWTH * (t[act[j]] - ts[act[j]]))
+                delta = max(delta, SEGMENT_GROWTH * (t[act[j]] - pk[TS, act[j]]))
 
 
 @kernel
@@ -356,6 +336,6 @@ def intersect_rays(start, stop, code, params, boxes, lips, depth, origins, direc
         if t0 > t1:
             continue
         t = trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, 0.0,
-                  0.05 * (t1 - t0) + eps_abs, np.inf, vstack, pstack)[0]
+                  0.05 * (t1 - t0) + eps_abs, vstack, pstack)
         if t >= 0.0:
             out[i] = t / norm
