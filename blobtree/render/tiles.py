@@ -1,9 +1,10 @@
 """Rendering one rectangle of the image: the unit of parallel and distributed work.
 
-Every pixel depends only on its own coordinates (anti-aliasing jitter comes from a hash of the
-seed, the pixel and the sample index; the cones marched ahead of the rays lie on a grid fixed to
-the image), so any set of tiles, rendered in any order on any machine, assembles into a
-byte-identical image.
+Every pixel depends only on its own coordinates and those of its cone's other pixels (anti-
+aliasing jitter comes from a hash of the seed, the pixel and the sample index; the cones marched
+ahead of the rays lie on a grid fixed to the image, and all the rays of a cone are traced
+together whatever part of it a rectangle wants), so any set of tiles, rendered in any order on
+any machine, assembles into a byte-identical image.
 """
 
 from __future__ import annotations

@@ -44,6 +44,8 @@ CONE_STOP = 0.1
 REFINE_ITERS = 24
 #: Refinement stops once the root is located to this fraction of the smallest step.
 REFINE_TOL = 1e-3
+#: Fewer rays of a packet than this are evaluated one by one, not as a batch.
+PACKET_MIN = 8
 
 
 @kernel
@@ -160,8 +162,17 @@ F, TN, LAST, TS, TE, LOW, RISE, PEAK = range(8)
 
 
 @kernel(inline="always")
-def _packet_field(code, params, boxes, O, D, at, ids, m, pts, vs, tmp):
-    """The field at O[k] + at[k] D[k] for the m rays k = ids[:m], into vs[0, :m] (one batch)."""
+def _packet_field(code, params, boxes, O, D, at, ids, m, pts, vs, tmp, vstack, pstack):
+    """The field at O[k] + at[k] D[k] for the m rays k = ids[:m], into vs[0, :m]: one batch,
+    or ray by ray when they are fewer than ``PACKET_MIN`` (a batch computes whole vector
+    groups)."""
+    if m < PACKET_MIN:
+        for j in range(m):
+            k = ids[j]
+            vs[0, j] = interp.eval_point(code, params, boxes, O[k, 0] + at[k] * D[k, 0],
+                                         O[k, 1] + at[k] * D[k, 1], O[k, 2] + at[k] * D[k, 2],
+                                         0, vstack, pstack)
+        return
     for j in range(m):
         k = ids[j]
         for r in range(3):
@@ -201,7 +212,7 @@ def trace_packet(code, params, boxes, lips, O, D, n, t, t_end, eps, eps_rel, del
         if t[k] <= t_end[k]:
             act[m] = k
             m += 1
-    _packet_field(code, params, boxes, O, D, t, act, m, pts, vs, tmp)
+    _packet_field(code, params, boxes, O, D, t, act, m, pts, vs, tmp, vstack, pstack)
     a = 0
     for j in range(m):
         k = act[j]
@@ -244,7 +255,8 @@ def trace_packet(code, params, boxes, lips, O, D, n, t, t_end, eps, eps_rel, del
                     mv += 1
             if mv == 0:
                 break
-            _packet_field(code, params, boxes, O, D, pk[TN], mov, mv, pts, vs, tmp)
+            _packet_field(code, params, boxes, O, D, pk[TN], mov, mv, pts, vs, tmp, vstack,
+                          pstack)
             for j in range(mv):
                 k = mov[j]
                 fn = vs[0, j] - ISO
