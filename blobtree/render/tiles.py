@@ -56,7 +56,7 @@ SHADOW_OFFSET = 1e-4
 #: are traced together (at most ``batch.SUB`` of them: one batch of the engine).
 BLOCK, SUB = 16, 8
 #: Length of the stretch of a SUB cone (in cone radii) its specialised program covers.
-LOCAL_SPAN = 16.0
+LOCAL_SPAN = 32.0
 #: First candidate segment of a ray, as a fraction of its chord through the bounds box.
 DELTA0 = 0.02
 #: First candidate segment of a ray leaving a stopped cone, in radii of that cone.
