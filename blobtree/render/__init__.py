@@ -61,7 +61,10 @@ def render(tree, width: int, height: int, camera: Camera | None = None,
     :data:`LOOKS` (``"studio"``: soft backdrop, soft shadows, ambient occlusion; ``"glossy"``:
     the same, polished; ``"paper"``: the plain style of the paper's figures); ``background``, an
     RGB triple in [0, 1], replaces the look's backdrop by that plain colour; ``progress`` shows a
-    bar over tiles; ``threads`` (default: numba's thread count) render tiles side by side;
+    bar over tiles of side ``tile`` (the rays of each 8x8-pixel cone are traced together, so a
+    tile side that is not a multiple of 8 traces the cones on its edges again for each tile that
+    touches them; the pixels are the same); ``threads`` (default: numba's thread count) render
+    tiles side by side;
     ``shading`` overrides any field of :class:`RenderSettings` the look sets (``ambient``,
     ``specular``, ``shininess``, ``occlusion``, ``light_radius``, ``sky``...) and the jitter
     ``seed``.
