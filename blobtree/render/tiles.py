@@ -187,19 +187,23 @@ def trace_rect(prog, cam: np.ndarray, lights: np.ndarray, settings: RenderSettin
                    EPS_SCENE * diag, eps_rel, SHADOW_OFFSET * diag, s.seed, x0, y0, x1, y1, gx0,
                    gy0, nbx, nby, t_near, t_far, out, *scratch, *local, *block,
                    np.empty(3), np.empty(3), np.empty((7, n + 1), dtype=np.int64),
-                   _packet_scratch(prog.depth))
+                   _packet_scratch(prog.depth, n))
     return out
 
 
-def _packet_scratch(depth: int) -> tuple:
+def _packet_scratch(depth: int, ncode: int) -> tuple:
     """The scratch of ``_sub_block`` for a cone of n = SUB^2 rays: the pixels' sums (n, 4); the
     ray table (``shade.T`` ...); the camera rays' origins and directions, the shadow rays'
-    (n, 3 each); the surface table (``shade.NX`` ...); then :func:`trace_packet`'s."""
+    (n, 3 each); the surface table (``shade.NX`` ...); :func:`trace_packet`'s; and a program of
+    up to ``ncode`` instructions specialised to a box, with ``specialize``'s scratch and the
+    box."""
     n = SUB * SUB
     return (np.empty((n, 4)), np.empty((10, n)), np.empty((n, 3)), np.empty((n, 3)),
             np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 9)), np.empty((8, n)),
             np.empty((2, n), dtype=np.int64), np.zeros((depth + 1, 3, BATCH)),
-            np.empty((depth, BATCH)), np.empty((depth, 7)))
+            np.empty((depth, BATCH)), np.empty((depth, 7)),
+            (np.empty((ncode, 4), dtype=np.int64), np.empty((ncode, 6)), np.empty(ncode),
+             np.empty((7, ncode + 1), dtype=np.int64), np.empty(3), np.empty(3)))
 
 
 @kernel
@@ -266,7 +270,7 @@ def _sub_block(code, params, boxes, lips, local, llo, lhi, cam, lights, lo, hi, 
     ``seg0``, then on the full program; and shaded together (:func:`shade_packet`).  All the
     cone's pixels are traced and shaded, whatever part of them a tile wants, so no pixel
     depends on the tiling.  ``packet``: the scratch ``trace_rect`` allocates."""
-    acc, rays, O, D, _, _, surf, pk, ids, pts, vs, tmp = packet
+    acc, rays, O, D, _, _, surf, pk, ids, pts, vs, tmp, _ = packet
     nx = sx1 - sx0
     n = nx * (sy1 - sy0)
     m = int(np.ceil(np.sqrt(samples)))
