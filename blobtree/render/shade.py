@@ -149,9 +149,11 @@ def _smoothstep(x):
 #: Rows of a packet's ray table (``tiles._packet_scratch``), for the ray being traced (camera
 #: or shadow ray): where it is, where this trace ends, where it leaves the scene's bounds, where
 #: it started, its smallest step, the trace's result (-1: no hit), where it leaves the local
-#: box (a shadow ray; -inf if it starts outside); then the camera ray's hit (-1: none), whether
-#: the hit came from the local program (1) or the full one (0), and whether the light being
-#: shaded may reach the hit (1: it faces the light and no shadow ray found it blocked yet).
+#: box (a shadow ray; -inf if it starts outside; on the full program, the end of its current
+#: stretch, -1 if it takes no part in it: :func:`_trace_stretches`); then the camera ray's
+#: hit (-1: none), whether the hit came from the local program (1) or the full one (0), and
+#: whether the light being shaded may reach the hit (1: it faces the light and no shadow ray
+#: found it blocked yet).
 T, T_END, T1, T0, EPS, OUT, SPLIT, HIT, INSIDE, REACHED = range(10)
 #: Columns of a packet's surface table: a hit's outward unit normal, linear albedo and colour.
 NX, NY, NZ, AR, AG, AB, CR, CG, CB = range(9)

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..checks import Integer, Number
 from ..engine.batch import SUB as BATCH
-from ..engine.specialize import specialize
+from ..engine.specialize import specialize, specialize_work
 from ..jit import kernel
 from .camera import Camera, as_color
 from .shade import (
@@ -178,32 +178,34 @@ def trace_rect(prog, cam: np.ndarray, lights: np.ndarray, settings: RenderSettin
     # cones always cover the whole grid cell: a pixel's result never depends on the tiling.
     gx0, gy0 = x0 // BLOCK, y0 // BLOCK
     nbx, nby = (x1 - 1) // BLOCK - gx0 + 1, (y1 - 1) // BLOCK - gy0 + 1
-    n = len(code)
     scratch = (np.empty((prog.depth, 7)), np.empty((prog.depth, 30)))
-    local = (np.empty((n, 4), dtype=np.int64), np.empty((n, 6)), np.empty(n))
-    block = (np.empty((n, 4), dtype=np.int64), np.empty((n, 6)), np.empty(n))
+    work = specialize_work(code)  # (specialising is never nested: one serves every call)
     _render_blocks(code, params, boxes, lips, cam, lights, lo, hi, s.width, s.height, s.samples,
                    s.shadows, bg, bg_bytes, s.packed_look(diag),
                    EPS_SCENE * diag, eps_rel, SHADOW_OFFSET * diag, s.seed, x0, y0, x1, y1, gx0,
-                   gy0, nbx, nby, t_near, t_far, out, *scratch, *local, *block,
-                   np.empty(3), np.empty(3), np.empty((7, n + 1), dtype=np.int64),
-                   _packet_scratch(prog.depth, n))
+                   gy0, nbx, nby, t_near, t_far, out, *scratch, *_program_buffers(len(code)),
+                   *_program_buffers(len(code)), np.empty(3), np.empty(3), work,
+                   _packet_scratch(prog.depth, len(code), work))
     return out
 
 
-def _packet_scratch(depth: int, ncode: int) -> tuple:
+def _program_buffers(n: int) -> tuple:
+    """Room for a program of up to n instructions specialised to a box (code, boxes, lips)."""
+    return np.empty((n, 4), dtype=np.int64), np.empty((n, 6)), np.empty(n)
+
+
+def _packet_scratch(depth: int, ncode: int, work: np.ndarray) -> tuple:
     """The scratch of ``_sub_block`` for a cone of n = SUB^2 rays: the pixels' sums (n, 4); the
     ray table (``shade.T`` ...); the camera rays' origins and directions, the shadow rays'
-    (n, 3 each); the surface table (``shade.NX`` ...); :func:`trace_packet`'s; and a program of
-    up to ``ncode`` instructions specialised to a box, with ``specialize``'s scratch and the
-    box."""
+    (n, 3 each); the surface table (``shade.NX`` ...); :func:`trace_packet`'s; and room for a
+    program of up to ``ncode`` instructions specialised to a box, ``specialize``'s ``work`` and
+    the box."""
     n = SUB * SUB
     return (np.empty((n, 4)), np.empty((10, n)), np.empty((n, 3)), np.empty((n, 3)),
             np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 9)), np.empty((8, n)),
             np.empty((2, n), dtype=np.int64), np.zeros((depth + 1, 3, BATCH)),
             np.empty((depth, BATCH)), np.empty((depth, 7)),
-            (np.empty((ncode, 4), dtype=np.int64), np.empty((ncode, 6)), np.empty(ncode),
-             np.empty((7, ncode + 1), dtype=np.int64), np.empty(3), np.empty(3)))
+            (*_program_buffers(ncode), work, np.empty(3), np.empty(3)))
 
 
 @kernel

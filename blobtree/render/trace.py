@@ -193,17 +193,16 @@ def _seen(pk, k, t, f):
 def trace_packet(code, params, boxes, lips, O, D, n, t, t_end, eps, eps_rel, delta0, out, pk,
                  ids, pts, vs, tmp, vstack, pstack):
     """Segment tracing of the rays O[k] + t D[k], k < n (unit directions), together, each over
-    [t[k], t_end[k]] (none where t[k] > t_end[k]): out[k] is its first hit, or -1 with t[k]
-    where it stopped (t_end[k] if it got there); the field's lowest value, largest rise and
-    where it peaked go on in ``pk`` (:data:`LOW` ...).  Each ray
-    steps as :func:`trace` does (never less than eps[k] + eps_rel t), but one bound serves them
-    all: over the box around every ray's candidate segment (value-aware at one of their points
-    where the root is CSG), and each step evaluates the new points of all the rays in one batch
-    (``batch.eval_rows``: SIMD over rays).  A segment ends for all once every ray has crossed it
-    (the next is ``SEGMENT_GROWTH`` times the longest crossing), or once some ray's steps are
-    short next to what is left of it (the next is ``GROWTH`` times the shortest step).
-    Scratch: pk (8, n) floats, ids (2, n) ints; pts, vs, tmp as ``eval_rows`` takes them (n at
-    most their columns)."""
+    [t[k], t_end[k]] (none where t[k] > t_end[k]): out[k] is its first hit, or -1 with t[k] where it
+    stopped (t_end[k] if it got there); the field's lowest value, largest rise and where it peaked
+    go on in ``pk`` (:data:`LOW` ...).  Each ray steps as :func:`trace` does (never less than eps[k]
+    + eps_rel t), but one bound serves them all: over the box around every ray's candidate segment
+    (value-aware at one of their points where the root is CSG), and each step evaluates the new
+    points of all the rays in one batch (``batch.eval_rows``: SIMD over rays).  A segment ends for
+    all once every ray has crossed it (the next is ``SEGMENT_GROWTH`` times the longest crossing),
+    or once some ray's steps are short next to what is left of it (the next is ``GROWTH`` times the
+    shortest step). Scratch: pk (8, n) floats, ids (2, n) ints; pts, vs, tmp as ``eval_rows`` takes
+    them (n at most their columns)."""
     values = interp.bounds_use_values(code)
     act, mov = ids[0], ids[1]
     m = 0
