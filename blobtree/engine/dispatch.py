@@ -68,7 +68,7 @@ DROP, KEEP, KILL = (ZERO_RULES.index(r) for r in ("drop", "keep", "kill"))
 #: What a zero first / later child does to an operator (paints die with their child).
 ZERO_FIRST = _table("ZERO_FIRST", ZERO_RULES, "kill", "drop")
 ZERO_REST = _table("ZERO_REST", ZERO_RULES, "kill", "drop")
-SUM, MAX, SCALED = (LIPSCHITZ_RULES.index(r) for r in ("sum", "max", "scaled"))
+SUM, MAX, SCALED, NORM = (LIPSCHITZ_RULES.index(r) for r in ("sum", "max", "scaled", "norm"))
 LIPSCHITZ = _table("LIPSCHITZ", LIPSCHITZ_RULES, "sum", "sum")
 #: Whether an opcode's type has a value-aware ``bound`` kernel (a CSG operator's).
 VALUE_BOUND = np.array([c.KIND == "operator" and c.KERNELS.bound is not None for c in TYPES]

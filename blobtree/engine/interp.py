@@ -32,6 +32,7 @@ from ..nodes.kmath import (
     gaps,
     map_box,
     map_point,
+    norm_of,
     safe_distances,
     texel,
     to_canonical,
@@ -46,6 +47,7 @@ from .dispatch import (
     K_WARP,
     LIPSCHITZ,
     MAX,
+    NORM,
     SCALED,
     VALUE_BOUND,
     combine,
@@ -286,6 +288,8 @@ def support_misses(code, p, lips, i, lox, loy, loz, hix, hiy, hiz):
 def _rule(op, p, o, vs, col, b, sp):
     """An operator's ``LIPSCHITZ`` rule over its children's bounds in vs[b:sp, col]."""
     acc = 0.0
+    if LIPSCHITZ[op] == NORM:
+        return norm_of(vs, b, sp, col, p[o])
     if LIPSCHITZ[op] == MAX:
         for j in range(b, sp):
             acc = max(acc, vs[j, col])

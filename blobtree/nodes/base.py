@@ -559,9 +559,11 @@ class Primitive(Node):
 #: "drop" (a zero changes nothing: remove it), "keep" (keep it as a ZERO instruction: its place or
 #: value matters) or "kill" (the operator is then zero everywhere in the region).
 ZERO_RULES = ("drop", "keep", "kill")
-#: How an operator's Lipschitz bound follows from its children's: their sum, their largest, or
-#: their sum times the operator's first parameter (``op_params()[0]``, a factor it derives).
-LIPSCHITZ_RULES = ("sum", "max", "scaled")
+#: How an operator's Lipschitz bound follows from its children's: their sum, their largest,
+#: their sum times the operator's first parameter (``op_params()[0]``, a factor it derives), or
+#: their n-norm (sum L_j^n)^(1/n) with n that first parameter (an operator that is the n-norm of
+#: its children's fields: |f(x) - f(y)| <= ||(f_j(x) - f_j(y))_j||_n by the triangle inequality).
+LIPSCHITZ_RULES = ("sum", "max", "scaled", "norm")
 
 
 class Operator(Node):
@@ -614,6 +616,9 @@ class Operator(Node):
 
     def _lipschitz(self):
         bounds = [c.lipschitz() for c in self.children]
+        if self.LIPSCHITZ == "norm":
+            m, n = max(bounds), self.op_params()[0]
+            return float(m * sum((b / m) ** n for b in bounds) ** (1.0 / n)) if m > 0.0 else 0.0
         return float(sum(bounds) if self.LIPSCHITZ == "sum" else max(bounds))
 
 

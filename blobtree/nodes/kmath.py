@@ -264,6 +264,22 @@ def select_bound(vs, b, k, reach, largest):
 
 
 @kernel
+def norm_of(vs, b, e, col, n):
+    """The n-norm (sum x^n)^(1/n) of the non-negative vs[b:e, col], as m (sum (x / m)^n)^(1/n)
+    with m the largest, so that no power overflows (n >= 1; at most their sum, and their largest
+    for n -> infinity)."""
+    m = 0.0
+    for j in range(b, e):
+        m = max(m, vs[j, col])
+    if m <= 0.0:
+        return 0.0
+    s = 0.0
+    for j in range(b, e):
+        s += (vs[j, col] / m) ** n
+    return m * s ** (1.0 / n)
+
+
+@kernel
 def copy_entry(vs, src, dst, sign):
     """Value-stack row src into row dst; sign -1 stores 1 - f and the negated gradient."""
     vs[dst, 0] = vs[src, 0] if sign > 0 else 1.0 - vs[src, 0]

@@ -201,8 +201,10 @@ def trace_packet(code, params, boxes, lips, O, D, n, t, t_end, eps, eps_rel, del
     points of all the rays in one batch (``batch.eval_rows``: SIMD over rays).  A segment ends for
     all once every ray has crossed it (the next is ``SEGMENT_GROWTH`` times the longest crossing),
     or once some ray's steps are short next to what is left of it (the next is ``GROWTH`` times the
-    shortest step). Scratch: pk (8, n) floats, ids (2, n) ints; pts, vs, tmp as ``eval_rows`` takes
-    them (n at most their columns)."""
+    shortest step).  Where the bound is 0 (no support meets the box) the field is the same all
+    over it, so the rays cross their segments without evaluating it.  Scratch: pk (8, n)
+    floats, ids (2, n) ints; pts, vs, tmp as ``eval_rows`` takes them (n at most their
+    columns)."""
     values = interp.bounds_use_values(code)
     act, mov = ids[0], ids[1]
     m = 0
@@ -240,15 +242,24 @@ def trace_packet(code, params, boxes, lips, O, D, n, t, t_end, eps, eps_rel, del
                                            hiz, O[k, 0] + t[k] * D[k, 0],
                                            O[k, 1] + t[k] * D[k, 1], O[k, 2] + t[k] * D[k, 2],
                                            values, vstack, pstack)
+        if lam == 0.0:  # no support meets the box: the field is the same all over it
+            for j in range(a):
+                k = act[j]
+                pk[LAST, k] = pk[TE, k] - t[k]
+                t[k] = pk[TE, k]
+            b = 0
+            for j in range(a):
+                if t[act[j]] < t_end[act[j]]:
+                    act[b] = act[j]
+                    b += 1
+            a = b
         creep = False
-        while not creep:  # lam bounds |df/dt| on every segment: step each ray on inside its own
-            mv = 0
+        while not creep and lam > 0.0:  # lam bounds |df/dt| on every segment: step each ray
+            mv = 0  # on inside its own
             for j in range(a):
                 k = act[j]
                 if t[k] < pk[TE, k]:
-                    step = pk[TE, k] - t[k]
-                    if lam > 0.0:
-                        step = min(step, -pk[F, k] / lam)
+                    step = min(pk[TE, k] - t[k], -pk[F, k] / lam)
                     pk[TN, k] = min(t[k] + max(step, eps[k] + eps_rel * t[k]), pk[TE, k])
                     mov[mv] = k
                     mv += 1
