@@ -217,8 +217,11 @@ def _add_light(lights, j, look, row, lx, ly, lz, vx, vy, vz, lit):
 
 
 #: Full programs of at least this many instructions are specialised anew for each stretch of a
-#: packet's shadow rays (the Murex's 2,681: 0.91x the time of its shadowed renders; whorl126's
-#: 292 gain less than the specialising costs).
+#: packet's shadow rays, from where the rays start (the Murex's 2,681: 0.91x the time of its
+#: shadowed renders; starting there rather than on the cone's program, which spans the cone's
+#: whole stretch in depth, took 18% off its shadow rays' time; whorl126's 292 gain less
+#: than the specialising costs: its shadow rays start on the cone's program, then take the full
+#: one).
 STRETCH_MIN = 1000
 #: A packet's first stretch of shadow rays on the full program, in first candidate segments
 #: (each next stretch is twice as long).
@@ -268,13 +271,14 @@ def shade_packet(code, params, boxes, lips, local, llo, lhi, n, lights, lo, hi, 
     """Linear RGB at the hits of the n camera rays O[k] + t D[k] of a packet, into columns
     CR, CG, CB of its surface table (``packet``: see ``tiles._packet_scratch``; the hits in its
     ray table).  ``local = (code, boxes, lips)`` is the program specialised to the box [llo,
-    lhi] the rays crossed: it gives the normals and albedos of the hits it found, and carries
-    the shadow rays that start in that box while they stay there; the full program takes them
-    on.  ``look`` (see :data:`AMBIENT` ...): Blinn-Phong lights of angular radius
-    atan(``LIGHT_TAN``) besides the ambient light.  The shadow rays toward each light start
-    just off the surface along the normal (so they cannot re-hit it) and are traced together
-    (:func:`trace_packet`; past the local box, a long program is specialised to each stretch
-    of them, :func:`_trace_stretches`); those that miss still darken by :func:`penumbra`."""
+    lhi] the rays crossed: it gives the normals and albedos of the hits it found, and, where
+    the full program is short (:data:`STRETCH_MIN`), carries the shadow rays that start in that
+    box while they stay there; the full program takes them on.  ``look`` (see
+    :data:`AMBIENT` ...): Blinn-Phong lights of angular radius atan(``LIGHT_TAN``) besides the
+    ambient light.  The shadow rays toward each light start just off the surface along the
+    normal (so they cannot re-hit it) and are traced together (:func:`trace_packet`; a long
+    program is specialised to each stretch of them, :func:`_trace_stretches`); those that miss
+    still darken by :func:`penumbra`."""
     _, rays, O, D, SO, SD, surf, pk, ids, pts, vs, tmp, _ = packet
     for k in range(n):
         t = rays[HIT, k]
@@ -306,8 +310,8 @@ def shade_packet(code, params, boxes, lips, local, llo, lhi, n, lights, lo, hi, 
             t0, t1 = clip_box(SO[k, 0], SO[k, 1], SO[k, 2], lx, ly, lz, lo, hi, 0.0, dist)
             rays[T0, k], rays[T1, k], rays[EPS, k] = t0, t1, 0.5 * se
             pk[LOW, k], pk[RISE, k], pk[PEAK, k] = np.inf, 0.0, t0
-            if not shadows or t0 > t1:
-                continue
+            if not shadows or t0 > t1 or code.shape[0] >= STRETCH_MIN:
+                continue  # (a long program's stretches get programs of their own from the start)
             ta, tb = clip_box(SO[k, 0], SO[k, 1], SO[k, 2], lx, ly, lz, llo, lhi, t0, t1)
             if ta == t0 and ta <= tb:  # starts in the local box
                 rays[SPLIT, k] = tb
