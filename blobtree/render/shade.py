@@ -280,6 +280,8 @@ def shade_packet(code, params, boxes, lips, local, llo, lhi, n, lights, lo, hi, 
     program is specialised to each stretch of them, :func:`_trace_stretches`); those that miss
     still darken by :func:`penumbra`."""
     _, rays, O, D, SO, SD, surf, pk, ids, pts, vs, tmp, _ = packet
+    # a long program's shadow rays take programs of their own from the start (STRETCH_MIN)
+    own = code.shape[0] >= STRETCH_MIN
     for k in range(n):
         t = rays[HIT, k]
         if t >= 0.0:
@@ -295,6 +297,7 @@ def shade_packet(code, params, boxes, lips, local, llo, lhi, n, lights, lo, hi, 
             t = rays[HIT, k]
             rays[REACHED, k] = 0.0
             rays[T, k], rays[T_END, k], rays[SPLIT, k] = 1.0, 0.0, -np.inf  # (no shadow ray)
+            rays[OUT, k] = -1.0
             if t < 0.0:
                 continue
             px, py, pz = O[k, 0] + t * D[k, 0], O[k, 1] + t * D[k, 1], O[k, 2] + t * D[k, 2]
@@ -310,17 +313,18 @@ def shade_packet(code, params, boxes, lips, local, llo, lhi, n, lights, lo, hi, 
             t0, t1 = clip_box(SO[k, 0], SO[k, 1], SO[k, 2], lx, ly, lz, lo, hi, 0.0, dist)
             rays[T0, k], rays[T1, k], rays[EPS, k] = t0, t1, 0.5 * se
             pk[LOW, k], pk[RISE, k], pk[PEAK, k] = np.inf, 0.0, t0
-            if not shadows or t0 > t1 or code.shape[0] >= STRETCH_MIN:
-                continue  # (a long program's stretches get programs of their own from the start)
+            if not shadows or t0 > t1 or own:
+                continue
             ta, tb = clip_box(SO[k, 0], SO[k, 1], SO[k, 2], lx, ly, lz, llo, lhi, t0, t1)
             if ta == t0 and ta <= tb:  # starts in the local box
                 rays[SPLIT, k] = tb
                 rays[T, k], rays[T_END, k] = t0, min(t1, tb)
                 d_local = min(d_local, 0.05 * (tb - t0) + se)
-        if shadows:
+        if shadows and not own:
             trace_packet(local[0], params, local[1], local[2], SO, SD, n, rays[T],
                          rays[T_END], rays[EPS], 0.0, d_local, rays[OUT], pk, ids, pts, vs, tmp,
                          vstack, pstack)
+        if shadows:
             for k in range(n):  # then on the full program, past the local box
                 if rays[OUT, k] >= 0.0:
                     rays[REACHED, k] = 0.0  # in shadow

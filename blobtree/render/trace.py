@@ -189,6 +189,19 @@ def _seen(pk, k, t, f):
         pk[PEAK, k] = t
 
 
+@kernel(inline="always")
+def _still_going(act, a, out, t, t_end):
+    """Keep in act[:a] the rays that found no hit and have not reached their end; return how
+    many."""
+    b = 0
+    for j in range(a):
+        k = act[j]
+        if out[k] < 0.0 and t[k] < t_end[k]:
+            act[b] = k
+            b += 1
+    return b
+
+
 @kernel
 def trace_packet(code, params, boxes, lips, O, D, n, t, t_end, eps, eps_rel, delta0, out, pk,
                  ids, pts, vs, tmp, vstack, pstack):
@@ -247,12 +260,7 @@ def trace_packet(code, params, boxes, lips, O, D, n, t, t_end, eps, eps_rel, del
                 k = act[j]
                 pk[LAST, k] = pk[TE, k] - t[k]
                 t[k] = pk[TE, k]
-            b = 0
-            for j in range(a):
-                if t[act[j]] < t_end[act[j]]:
-                    act[b] = act[j]
-                    b += 1
-            a = b
+            a = _still_going(act, a, out, t, t_end)
         creep = False
         while not creep and lam > 0.0:  # lam bounds |df/dt| on every segment: step each ray
             mv = 0  # on inside its own
@@ -282,13 +290,7 @@ def trace_packet(code, params, boxes, lips, O, D, n, t, t_end, eps, eps_rel, del
                 pk[F, k] = fn
                 if pk[TE, k] - tn > REBOUND * pk[LAST, k]:
                     creep = True
-            b = 0  # keep the rays still going
-            for j in range(a):
-                k = act[j]
-                if out[k] < 0.0 and t[k] < t_end[k]:
-                    act[b] = k
-                    b += 1
-            a = b
+            a = _still_going(act, a, out, t, t_end)
         if creep:
             delta = np.inf
             for j in range(a):
