@@ -616,11 +616,9 @@ class Operator(Node):
 
     def _lipschitz(self):
         bounds = [c.lipschitz() for c in self.children]
-        if self.LIPSCHITZ == "norm":  # the kernels' own n-norm, run by Python
-            from .kmath import norm_of  # (kmath imports this module)
-
-            return float(norm_of.py_func(np.array(bounds)[:, None], 0, len(bounds), 0,
-                                         self.op_params()[0]))
+        if self.LIPSCHITZ == "norm":
+            m, n = max(bounds), self.op_params()[0]
+            return float(m * sum((b / m) ** n for b in bounds) ** (1.0 / n)) if m > 0.0 else 0.0
         return float(sum(bounds) if self.LIPSCHITZ == "sum" else max(bounds))
 
 
