@@ -25,6 +25,7 @@ from pathlib import Path
 import numba
 from numba.core import event, types
 from numba.core.caching import FunctionCache
+from numba.core.runtime import rtsys
 
 _PACKAGE = Path(__file__).resolve().parent
 #: Parts of the package no kernel depends on: code numba never compiles, and the mesher, whose
@@ -45,8 +46,21 @@ def engine_key() -> str:
     return h.hexdigest()[:24]
 
 
-class _EngineCache(FunctionCache):
-    """numba's function cache, with the engine's digest and a closure tag in every key."""
+class _QuickCache(FunctionCache):
+    """numba's function cache, loading without first refreshing the target context."""
+
+    def load_overload(self, sig, target_context):
+        """numba's, without the refresh: it imports and installs every registry numba has
+        (0.25-0.5 s on the first call of a process, SciPy's BLAS check included), which only
+        compiling needs, and numba's compiler refreshes before it compiles.  Loading needs
+        only the runtime's symbols (``rtsys``)."""
+        rtsys.initialize(target_context)
+        with self._guard_against_spurious_io_errors():
+            return self._load_overload(sig, target_context)
+
+
+class _EngineCache(_QuickCache):
+    """The quick-loading cache, with the engine's digest and a closure tag in every key."""
 
     def __init__(self, py_func: Callable, tag: str) -> None:
         super().__init__(py_func)
@@ -55,6 +69,19 @@ class _EngineCache(FunctionCache):
     def _index_key(self, sig, codegen):
         code = hashlib.sha256(self._py_func.__code__.co_code).hexdigest()
         return (sig, codegen.magic_tuple(), (engine_key(), code, self._tag))
+
+
+def cached(fn: Callable | None = None, **options):
+    """``numba.njit(cache=True, **options)``, its cache loading without numba's registry refresh
+    (:class:`_QuickCache`): for kernels that call no engine kernel (the mesher's), so that their
+    own source file is key enough."""
+
+    def wrap(f: Callable):
+        dispatcher = numba.njit(**options)(f)
+        dispatcher._cache = _QuickCache(f)
+        return dispatcher
+
+    return wrap(fn) if fn is not None else wrap
 
 
 def kernel(fn: Callable | None = None, *, tag: str = "", nrt: bool = False,

@@ -24,9 +24,9 @@ from __future__ import annotations
 
 import itertools
 
-import numba as nb
 import numpy as np
 
+from ..jit import cached
 from ..parallel import parallel_for, parallel_map
 
 # --- cell geometry, generated (corner c = x + 2y + 4z) ----------------------------------------
@@ -79,7 +79,7 @@ for _f in range(6):
         NO_DIAGONAL[np.ix_(FACE_EDGES[_f], FACE_EDGES[_f])] = True
 
 
-@nb.njit(cache=True, inline="always")
+@cached(inline="always")
 def _fan_apex(loop, start, n):
     """Position in the loop of a fan apex with no diagonal in :data:`NO_DIAGONAL`, or -1 (the
     loop then gets a vertex of its own at its centre, and a fan from there)."""
@@ -94,7 +94,7 @@ def _fan_apex(loop, start, n):
     return -1
 
 
-@nb.njit(cache=True, inline="always")
+@cached(inline="always")
 def _cell_loops(v, iso, nxt, loops, loop_len):
     """Trace the contour loops of one cell with corner values ``v`` (8,).
 
@@ -151,7 +151,7 @@ def _cell_loops(v, iso, nxt, loops, loop_len):
     return n_loops
 
 
-@nb.njit(cache=True, inline="always")
+@cached(inline="always")
 def _load_cell(values, blk, i, j, k, iso, v):
     """Corner values of cell (i, j, k) of block ``blk`` into ``v``; True if the surface crosses."""
     n_in = 0
@@ -161,7 +161,7 @@ def _load_cell(values, blk, i, j, k, iso, v):
     return 0 < n_in < 8
 
 
-@nb.njit(cache=True, inline="always")
+@cached(inline="always")
 def _edge_slot(e, i, j, k, m):
     """Index of cell (i, j, k)'s edge ``e`` among the block's lattice edges (point * 3 + axis)."""
     return (
@@ -230,7 +230,7 @@ def _weld(keys: np.ndarray, shared: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     return np.flatnonzero(keep), index
 
 
-@nb.njit(cache=True, nogil=True)
+@cached(nogil=True)
 def _renumber(start, stop, tris, t_base, v_base, c_base, index, nverts, out):
     """Triangles start..stop - 1 (part q's from ``t_base[q]``, numbered within the part) on the
     welded vertices: part q's edge vertex i becomes ``index[v_base[q] + i]``, its centre
@@ -244,7 +244,7 @@ def _renumber(start, stop, tris, t_base, v_base, c_base, index, nverts, out):
             out[t, c] = index[v_base[q] + v] if v >= 0 else nverts + c_base[q] - 1 - v
 
 
-@nb.njit(cache=True, nogil=True)
+@cached(nogil=True)
 def _fill_part(start, stop, values, origins, box_start, boxes, fine, dims, iso):
     """The work of :func:`block_triangles` for blocks start..stop - 1 in one pass, into arrays
     grown as needed: (keys, f0, f1, shared, centres, tris, block_v), numbered from 0 within the
@@ -283,7 +283,7 @@ def _fill_part(start, stop, values, origins, box_start, boxes, fine, dims, iso):
     return keys[:ov], f0[:ov], f1[:ov], shared[:ov], centres[:oc], tris[:ot], block_v
 
 
-@nb.njit(cache=True)
+@cached
 def _grown(a, size):
     """A copy of the 1-D array ``a`` with room for ``size`` items."""
     out = np.empty(size, dtype=a.dtype)
@@ -292,7 +292,7 @@ def _grown(a, size):
     return out
 
 
-@nb.njit(cache=True)
+@cached
 def _grown_rows(a, size):
     """A copy of the (n, 3) array ``a`` with room for ``size`` rows (the shape spelled out: a
     shape built by tuple concatenation takes seconds to compile)."""
@@ -303,7 +303,7 @@ def _grown_rows(a, size):
     return out
 
 
-@nb.njit(cache=True)
+@cached
 def _fill_block(
     values,
     blk,
@@ -398,7 +398,7 @@ def _fill_block(
     return ov, oc, ot
 
 
-@nb.njit(cache=True, inline="always")
+@cached(inline="always")
 def _edge_point(e, f0, f1, iso):
     """Linear-interpolation crossing on cell edge ``e``, in cell coordinates (3,)."""
     x = np.empty(3)

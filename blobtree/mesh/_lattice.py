@@ -7,9 +7,9 @@ only the points of the boxes of ``fine`` cells the culling kept are sampled.  Se
 
 from __future__ import annotations
 
-import numba as nb
 import numpy as np
 
+from ..jit import cached
 from ..parallel import parallel_for
 
 
@@ -29,7 +29,7 @@ def new_store(nblocks, block, fine, kept_slot, kept_loc, kept_value):
     return values, sampled, boxmap
 
 
-@nb.njit(cache=True, nogil=True)
+@cached(nogil=True)
 def _clear_blocks(start, stop, sampled, boxmap):
     """Blocks start..stop - 1: nothing sampled, no kept box."""
     for b in range(start, stop):
@@ -37,7 +37,7 @@ def _clear_blocks(start, stop, sampled, boxmap):
         boxmap[b] = -1
 
 
-@nb.njit(cache=True, nogil=True)
+@cached(nogil=True)
 def _store_centres(start, stop, fine, kept_slot, kept_loc, kept_value, values, sampled, boxmap):
     """Kept boxes start..stop - 1 into the map, their centres' values stored as sampled."""
     half = fine // 2
@@ -70,7 +70,7 @@ def gather(sampled, boxes, kept_slot, kept_loc, offsets, block_origins, grid_ori
     return flat, coords, first
 
 
-@nb.njit(cache=True, nogil=True)
+@cached(nogil=True)
 def _find_new(start, stop, sampled, boxes, group, kept_slot, kept_loc, offsets, found, counts):
     """Groups start..stop - 1 of ``boxes`` (one block each): their points not sampled yet,
     marked sampled, their local coordinates (i << 16 | j << 8 | k) from found[group[g] * P]
@@ -90,7 +90,7 @@ def _find_new(start, stop, sampled, boxes, group, kept_slot, kept_loc, offsets, 
         counts[b + 1] = n - group[g] * offsets.shape[0]
 
 
-@nb.njit(cache=True, nogil=True)
+@cached(nogil=True)
 def _place_new(start, stop, boxes, group, kept_slot, noffsets, m, found, first, block_origins,
                grid_origin, h, flat, coords):
     """Groups start..stop - 1: the points :func:`_find_new` found, at their block's place in
@@ -107,14 +107,14 @@ def _place_new(start, stop, boxes, group, kept_slot, noffsets, m, found, first, 
             coords[n, 2] = grid_origin[2] + (block_origins[b, 2] + k) * h
 
 
-@nb.njit(cache=True, nogil=True)
+@cached(nogil=True)
 def store(start, stop, flat, f, values):
     """values (flat view) at ``flat`` start..stop - 1 from f."""
     for n in range(start, stop):
         values[flat[n]] = f[n]
 
 
-@nb.njit(cache=True)
+@cached
 def keep_boxes(lip, fc, below, above, half, lo, hi, bounds_lo, bounds_hi, clip, iso):
     """Boxes the surface may cross: ``|f(centre) - iso| <= L * half-diagonal`` (and L > 0),
     unless the field surely stays below (or above) iso over the half-diagonal from the centre
@@ -142,7 +142,7 @@ def seeds(values, kept_slot, kept_loc, fine, iso):
     return out
 
 
-@nb.njit(cache=True, nogil=True)
+@cached(nogil=True)
 def _seeds(start, stop, values, kept_slot, kept_loc, fine, iso, out):
     """:func:`seeds` for kept boxes start..stop - 1."""
     half = fine // 2
@@ -157,7 +157,7 @@ def _seeds(start, stop, values, kept_slot, kept_loc, fine, iso, out):
                 break
 
 
-@nb.njit(cache=True)
+@cached
 def _face_crossed(values, b, i, j, k, axis, side, fine, iso):
     """Does a lattice edge on a face of the box at local (i, j, k) of block b cross the iso?
     Exactly when the face's samples are not all on one side (its lattice is connected)."""
@@ -173,7 +173,7 @@ def _face_crossed(values, b, i, j, k, axis, side, fine, iso):
     return False
 
 
-@nb.njit(cache=True, inline="always")
+@cached(inline="always")
 def _face_value(values, b, i, j, k, axis, w, u, v):
     """Value at offset w along ``axis`` and (u, v) along the next two axes (cyclically)."""
     if axis == 0:
@@ -194,7 +194,7 @@ def spread(
     return _activate(across.reshape(-1), active)
 
 
-@nb.njit(cache=True, nogil=True)
+@cached(nogil=True)
 def _across(
     start, stop, values, frontier, kept_slot, kept_loc, boxmap, block_of, block_origins, block,
     fine, iso, across
@@ -231,7 +231,7 @@ def _across(
                 across[q, 2 * axis + side] = boxmap[other, there[0], there[1], there[2]]
 
 
-@nb.njit(cache=True)
+@cached
 def _activate(boxes, active):
     """The boxes (>= 0) not yet active, each once, ascending (so grouped by block, as the kept
     boxes are); marks them active."""
@@ -252,7 +252,7 @@ def box_geometry(origins, size, grid_origin, h, limit):
     return lo, hi, centre, half
 
 
-@nb.njit(cache=True, nogil=True)
+@cached(nogil=True)
 def _box_geometry(start, stop, origins, size, grid_origin, h, limit, lo, hi, centre, half):
     """:func:`box_geometry` for boxes start..stop - 1."""
     for q in range(start, stop):
@@ -268,7 +268,7 @@ def _box_geometry(start, stop, origins, size, grid_origin, h, limit, lo, hi, cen
         half[q] = 0.5 * np.sqrt(d2)
 
 
-@nb.njit(cache=True)
+@cached
 def split(origins, size, step, limit):
     """The ``step``^3 descendants of ``size`` cells of each box (of ``size * step`` cells,
     ``step`` a power of 2) whose origin lies before ``limit``, in octree order (the base-8

@@ -12,10 +12,10 @@ from __future__ import annotations
 
 import math
 
-import numba as nb
+from ..jit import cached
 
 
-@nb.njit(cache=True, inline="always")
+@cached(inline="always")
 def _secant(ta, tb, ga, gb):
     """Root of the line through (ta, ga), (tb, gb) (ga, gb of opposite signs, ga may be 0),
     kept inside [ta, tb]."""
@@ -24,7 +24,7 @@ def _secant(ta, tb, ga, gb):
     return min(max(t, min(ta, tb)), max(ta, tb))
 
 
-@nb.njit(cache=True, inline="always")
+@cached(inline="always")
 def _on_edge(p0, axis, h, r, t, out, q):
     """out[q] = vertex r's edge point at parameter t: p0[r] + t h along its axis."""
     for c in range(3):
@@ -32,7 +32,7 @@ def _on_edge(p0, axis, h, r, t, out, q):
     out[q, axis[r]] += t * h
 
 
-@nb.njit(cache=True, nogil=True)
+@cached(nogil=True)
 def edge_starts(start, stop, keys, dims, origin, h, p0, axis):
     """For vertices start..stop - 1: the lower lattice point p0 (origin + index * h) and the
     axis of each one's lattice edge, from its key (point index * 3 + axis, the point's index
@@ -45,7 +45,7 @@ def edge_starts(start, stop, keys, dims, origin, h, p0, axis):
             point //= dims[c]
 
 
-@nb.njit(cache=True, nogil=True)
+@cached(nogil=True)
 def secant_points(start, stop, rows, p0, axis, h, ta, tb, ga, gb, t, out):
     """For vertices ``rows[start:stop]``: the secant root of each bracket into ``t`` and its
     point on the edge into ``out[start:stop]``."""
@@ -55,7 +55,7 @@ def secant_points(start, stop, rows, p0, axis, h, ta, tb, ga, gb, t, out):
         _on_edge(p0, axis, h, r, t[r], out, q)
 
 
-@nb.njit(cache=True, nogil=True)
+@cached(nogil=True)
 def bracket_step(start, stop, rows, g, t, ta, tb, ga, gb, last, tol, done):
     """One regula-falsi step for vertices ``rows[start:stop]`` given g = f - iso at their
     secant roots ``t``: the root replaces the bracket's end on its side; an end kept twice in
@@ -79,7 +79,7 @@ def bracket_step(start, stop, rows, g, t, ta, tb, ga, gb, last, tol, done):
             tb[r], gb[r], last[r] = t[r], gq, 2
 
 
-@nb.njit(cache=True, nogil=True)
+@cached(nogil=True)
 def final_roots(start, stop, ta, tb, ga, gb, t, t_lo, t_hi, p0, axis, h, out):
     """The bracket (kept ``1e-4`` from the edge's ends, so that no two edges' vertices meet)
     into t_lo, t_hi, the secant root inside it into t, and its point into out."""
@@ -90,7 +90,7 @@ def final_roots(start, stop, ta, tb, ga, gb, t, t_lo, t_hi, p0, axis, h, out):
         _on_edge(p0, axis, h, r, t[r], out, r)
 
 
-@nb.njit(cache=True, nogil=True)
+@cached(nogil=True)
 def newton_step(start, stop, f, grad, iso, axis, h, t, t_lo, t_hi, movable, verts):
     """A last Newton step along each edge from the field and gradient at its vertex, taken only
     where it stays inside the bracket (t_lo, t_hi) and ``movable``."""
@@ -103,7 +103,7 @@ def newton_step(start, stop, f, grad, iso, axis, h, t, t_lo, t_hi, movable, vert
             verts[r, axis[r]] += (t_new - t[r]) * h
 
 
-@nb.njit(cache=True, nogil=True)
+@cached(nogil=True)
 def outward_normals(start, stop, grad, out, flat):
     """Unit outward normals -grad f / |grad f| of vertices start..stop - 1 into out; where
     |grad f| < 1e-12, ``flat`` is set and out left at 0 (the caller puts a face normal

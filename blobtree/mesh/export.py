@@ -11,10 +11,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from numba import njit
 
 from ..checks import Number, positive
 from ..files import atomic_path
+from ..jit import cached
 from ..parallel import parallel_for
 
 #: file extension -> format; PLY and STL are encoded here (``ENCODERS``), the others by trimesh
@@ -72,7 +72,7 @@ def _ply_bytes(mesh: Mesh) -> bytes:
 _STL_RECORD = np.dtype([("normal", "<f4", 3), ("corners", "<f4", 9), ("attribute", "<u2")])
 
 
-@njit(cache=True, nogil=True)
+@cached(nogil=True)
 def _stl_floats(start, stop, vertices, faces, out):
     """For faces ``start:stop``: the unit normal (zero for a degenerate face) and the three
     corners, as the 12 floats of an STL record."""
@@ -111,7 +111,7 @@ def _stl_bytes(mesh: Mesh) -> np.ndarray:
 ENCODERS = {"ply": _ply_bytes, "stl": _stl_bytes}
 
 
-@njit(cache=True)
+@cached
 def _union_faces(faces, nverts):
     """Union-find over vertices joined by faces; returns each vertex's root."""
     parent = np.arange(nverts)
@@ -133,7 +133,7 @@ def _union_faces(faces, nverts):
     return parent
 
 
-@njit(cache=True)
+@cached
 def _edges_pair_up(faces, nverts):
     """Whether every directed edge of the faces occurs once and its reverse once.  The edges
     are bucketed by their lower vertex (a counting sort); within a bucket, each edge must meet
@@ -167,7 +167,7 @@ def _edges_pair_up(faces, nverts):
     return True
 
 
-@njit(cache=True)
+@cached
 def _piece_volumes(vertices, faces, pieces, n):
     """Per piece, the sum over its faces of the signed volume of the tetrahedron the face makes
     with the origin, a . (b x c) / 6 (the divergence theorem)."""
