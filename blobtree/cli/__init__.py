@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import contextlib
 import gc
-import importlib.abc
 import sys
 from collections.abc import Iterator
 
@@ -14,38 +13,9 @@ from tqdm import tqdm
 from ..jit import on_compile
 
 
-class _HideSciPy(importlib.abc.MetaPathFinder):
-    """An import finder under which ``scipy.linalg`` cannot be imported."""
-
-    def find_spec(self, name, path, target=None):
-        if name == "scipy.linalg" or name.startswith("scipy.linalg."):
-            raise ModuleNotFoundError(f"No module named {name!r} (hidden)", name=name)
-        return None
-
-
-def _start_numba_without_blas_probe() -> None:
-    """Load numba's array maths with SciPy hidden.
-
-    When numba's CPU target starts, ``numba.np.arraymath`` imports ``scipy.linalg`` only to learn
-    whether ``np.dot`` may be compiled.  With SciPy installed that import costs about 0.2 s of
-    every command, and no blobtree kernel calls BLAS.  The command line runs only blobtree's
-    kernels (scene files are data), so it loads that module with ``scipy.linalg`` hidden, which
-    stays importable for everything afterwards.
-    """
-    if "scipy.linalg" in sys.modules or "numba.np.arraymath" in sys.modules:
-        return
-    finder = _HideSciPy()
-    sys.meta_path.insert(0, finder)
-    try:
-        import numba.np.arraymath  # noqa: F401
-    finally:
-        sys.meta_path.remove(finder)
-
-
 def start_command() -> None:
     """Process-wide set-up of a ``blobtree`` command, before it runs (not on import, so code
-    that imports the CLI keeps numba and the garbage collector as they were)."""
-    _start_numba_without_blas_probe()
+    that imports the CLI keeps the garbage collector as it was)."""
     # The ~70,000 objects numpy and numba create on import live as long as the command: frozen,
     # they are no longer walked by every full collection (numba's target start triggers one).
     gc.freeze()
