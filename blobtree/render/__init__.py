@@ -15,7 +15,6 @@ from typing import Any
 
 import numba
 import numpy as np
-from tqdm.auto import tqdm
 
 from ..checks import Choice
 from ..engine.program import program_of
@@ -111,6 +110,8 @@ def render(tree, width: int, height: int, camera: Camera | None = None,
                 if store is not None:
                     store.save((x0, y0, x1, y1), pixels)
                 if progress and bar is None:  # from the first tile: no estimate from compiling
+                    from tqdm.auto import tqdm  # lazily: it imports asyncio (~20 ms a command)
+
                     bar = tqdm(total=len(rects), initial=1, unit="tile", desc="render",
                                leave=False)
                 elif bar is not None:
