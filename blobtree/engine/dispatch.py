@@ -129,7 +129,7 @@ def _kernels() -> dict[str, object]:
 
 _PRIM = "p, o, qx, qy, qz"
 _DEFAULT_LIPSCHITZ = ("s = K.s(p, o, cx, cy, cz)[0]\n"
-                      "return distance_bound(p, o, lip, s, hx, hy, hz)")
+                      "return distance_bound(p, o, lip, s, hx, hy, hz, r)")
 _ROWS = """for k in range(nb):
     qx, qy, qz = map_point(p, o, pts[pp, 0, k], pts[pp, 1, k], pts[pp, 2, k])
     s = K.s_inline(p, o, qx, qy, qz)[0]
@@ -151,8 +151,8 @@ SOURCE = "".join([
     _dispatcher("prim_s", _PRIM, "primitive", f"return K.s({_PRIM})",
                 "return NAN, 0.0, 0.0, 0.0"),
     _dispatcher("prim_uv", _PRIM, "primitive", f"return K.uv({_PRIM})", "return NAN, NAN"),
-    _dispatcher("prim_lipschitz", "p, o, lip, cx, cy, cz, hx, hy, hz", "primitive",
-                lambda c: ("return K.lipschitz(p, o, lip, cx, cy, cz, hx, hy, hz)"
+    _dispatcher("prim_lipschitz", "p, o, lip, cx, cy, cz, hx, hy, hz, r", "primitive",
+                lambda c: ("return K.lipschitz(p, o, lip, cx, cy, cz, hx, hy, hz, r)"
                            if c.KERNELS.lipschitz else _DEFAULT_LIPSCHITZ), "return NAN"),
     _dispatcher("prim_along", "p, o, ox, oy, oz, dx, dy, dz, length", "primitive",
                 lambda c: ("return K.along(p, o, ox, oy, oz, dx, dy, dz, length)"
@@ -175,13 +175,13 @@ SOURCE = "".join([
 
 
 @kernel
-def distance_bound(p, o, lip, s, hx, hy, hz):
+def distance_bound(p, o, lip, s, hx, hy, hz, r):
     """The default box bound of a primitive with a constant field radius R: the distance-aware
-    bound (``kmath.distance_lipschitz``) for a box whose centre has s = d^2 / R^2 and whose half
-    extents are h."""
+    bound (``kmath.distance_lipschitz``) for a region around a centre with s = d^2 / R^2, within
+    the box of half extents h and the ball of radius r there."""
     radius = p[o + RADIUS]
     return kmath.distance_lipschitz(lip, int(p[o + FALLOFF]), radius, math.sqrt(s) * radius,
-                                    math.sqrt(hx * hx + hy * hy + hz * hz))
+                                    min(math.sqrt(hx * hx + hy * hy + hz * hz), r))
 
 
 def _build() -> dict[str, object]:
@@ -205,7 +205,8 @@ _D = _build()
 prim_s = _D["prim_s"]
 #: (u, v) of a primitive: prim_uv(op, p, o, qx, qy, qz)
 prim_uv = _D["prim_uv"]
-#: bound on |grad f| over a local box: prim_lipschitz(op, p, o, lip, cx, cy, cz, hx, hy, hz)
+#: bound on |grad f| over a local region (a box and a ball about its centre):
+#: prim_lipschitz(op, p, o, lip, cx, cy, cz, hx, hy, hz, r)
 prim_lipschitz = _D["prim_lipschitz"]
 #: bound on |df/dt| along a frame segment, or -1: prim_along(op, p, o, ox.., dx.., length)
 prim_along = _D["prim_along"]

@@ -24,7 +24,7 @@ import math
 import numpy as np
 
 from ..jit import kernel
-from ..nodes.base import ABOVE, BELOW, BOUND, FALLOFF
+from ..nodes.base import ABOVE, BELOW, BOUND, FALLOFF, FRAME_NORM, MAP_NORM
 from ..nodes.kmath import (
     fo,
     fo_ds,
@@ -244,42 +244,51 @@ def eval_point(code, params, boxes, x, y, z, mode, vs, ps):
 
 
 @kernel(inline="always")
-def _prim_bound(op, p, o, lip, ray, pp, lox, loy, loz, hix, hiy, hiz, ox, oy, oz, dx, dy, dz,
-                length):
-    """A primitive's bound over the box, or along the segment where it has a directional one
-    (outside warps, ``ray``)."""
+def half_diagonal(lox, loy, loz, hix, hiy, hiz):
+    """The radius of the ball around the box [lo, hi] (about its centre)."""
+    return 0.5 * math.sqrt((hix - lox) ** 2 + (hiy - loy) ** 2 + (hiz - loz) ** 2)
+
+
+@kernel(inline="always")
+def _prim_bound(op, p, o, lip, ray, pp, lox, loy, loz, hix, hiy, hiz, rad, ox, oy, oz, dx, dy,
+                dz, length):
+    """A primitive's bound over the region (the box [lo, hi] and the ball of radius ``rad``
+    about its centre), or along the segment where it has a directional one (outside warps,
+    ``ray``)."""
     if ray and pp == 0:
         along = prim_along(op, p, o, ox, oy, oz, dx, dy, dz, length)
         if along >= 0.0:
             return along
     cx, cy, cz, hx, hy, hz = map_box(p, o, lox, loy, loz, hix, hiy, hiz)
-    return prim_lipschitz(op, p, o, lip, cx, cy, cz, hx, hy, hz)
+    return prim_lipschitz(op, p, o, lip, cx, cy, cz, hx, hy, hz, rad * p[o + MAP_NORM])
 
 
 @kernel
-def carry(kind, op, p, o, lip, lox, loy, loz, hix, hiy, hiz, scratch):
-    """The region [lo, hi] carried into a PUSHPT's frame (the box around its affine image) or
-    through a WARP (a cube around the warped centre: the query map moves points by at most
-    its stretch ``lip`` times the distance); ``scratch``: a point stack the warp may not use."""
+def carry(kind, op, p, o, lip, lox, loy, loz, hix, hiy, hiz, rad, scratch):
+    """The region, within the box [lo, hi] and the ball of radius ``rad`` about its centre,
+    carried into a PUSHPT's frame (the box around its affine image, the ball grown by the map's
+    norm) or through a WARP (a ball, and the cube around it, about the warped centre: the query
+    map moves points by at most its stretch ``lip`` times the distance): the new box and ball
+    radius.  A warp's region is a ball: the cube around it reaches sqrt(3) times further.
+    ``scratch``: a point stack the warp may not use."""
     if kind == K_PUSHPT:
         cx, cy, cz, ex, ey, ez = map_box(p, o, lox, loy, loz, hix, hiy, hiz)
-        return cx - ex, cy - ey, cz - ez, cx + ex, cy + ey, cz + ez
+        return cx - ex, cy - ey, cz - ez, cx + ex, cy + ey, cz + ez, rad * p[o + FRAME_NORM]
     cx, cy, cz = 0.5 * (lox + hix), 0.5 * (loy + hiy), 0.5 * (loz + hiz)
-    ex, ey, ez = 0.5 * (hix - lox), 0.5 * (hiy - loy), 0.5 * (hiz - loz)
-    reach = lip * math.sqrt(ex * ex + ey * ey + ez * ez)
+    reach = lip * min(rad, half_diagonal(lox, loy, loz, hix, hiy, hiz))
     wx, wy, wz = apply_warp(op, p, o, cx, cy, cz, scratch, 0, 0)
-    return wx - reach, wy - reach, wz - reach, wx + reach, wy + reach, wz + reach
+    return wx - reach, wy - reach, wz - reach, wx + reach, wy + reach, wz + reach, reach
 
 
 @kernel
-def support_misses(code, p, lips, i, lox, loy, loz, hix, hiy, hiz):
-    """Is primitive i zero all over the box [lo, hi] (its frame's coordinates)?  True when its
-    bound on |grad f| over the box is 0 (its field is constant there) and it is zero at the
-    box's centre: a tighter test than its box's (a ball's support against a box, a cone's
-    distance from its axis)."""
+def support_misses(code, p, lips, i, lox, loy, loz, hix, hiy, hiz, rad):
+    """Is primitive i zero all over the region (its frame's coordinates: within the box
+    [lo, hi] and the ball of radius ``rad`` about its centre)?  True when its bound on |grad f|
+    there is 0 (its field is constant there) and it is zero at the centre: a tighter test than
+    its box's (a ball's support against a box, a cone's distance from its axis)."""
     op, o = code[i, 0], code[i, 1]
     cx, cy, cz, hx, hy, hz = map_box(p, o, lox, loy, loz, hix, hiy, hiz)
-    if prim_lipschitz(op, p, o, lips[i], cx, cy, cz, hx, hy, hz) > 0.0:
+    if prim_lipschitz(op, p, o, lips[i], cx, cy, cz, hx, hy, hz, rad * p[o + MAP_NORM]) > 0.0:
         return False
     return prim_s(op, p, o, cx, cy, cz)[0] >= 1.0
 
@@ -304,10 +313,13 @@ def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox,
                dy, dz, length, vs):
     """``lipschitz_box``; with ``ray``, primitives with a directional bound (outside warps) take
     it along the segment o + t d, 0 <= t <= length inside the box.  Bounds in vs[:, 0], the
-    regions saved across warps in vs[pp, 1:7] (no field values: see :func:`_bounded`)."""
+    regions saved across warps in vs[pp, 1:7] (no field values: see :func:`_bounded`).  The
+    region also lies within the ball of radius ``rad`` about the box's centre (:func:`carry`:
+    a warp's region is a ball); leaving a warp, that is again the box's own."""
     n = code.shape[0]
     sp = 0
     pp = 0
+    rad = half_diagonal(lox, loy, loz, hix, hiy, hiz)
     i = 0
     while i < n:
         op = code[i, 0]
@@ -317,7 +329,7 @@ def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox,
                 vs[sp, 0] = 0.0
             else:
                 vs[sp, 0] = _prim_bound(op, params, code[i, 1], lips[i], ray, pp, lox, loy, loz,
-                                        hix, hiy, hiz, ox, oy, oz, dx, dy, dz, length)
+                                        hix, hiy, hiz, rad, ox, oy, oz, dx, dy, dz, length)
             sp += 1
             i += 1
         elif kind == K_OPERATOR:
@@ -336,13 +348,14 @@ def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox,
                 vs[pp, 1], vs[pp, 2], vs[pp, 3] = lox, loy, loz
                 vs[pp, 4], vs[pp, 5], vs[pp, 6] = hix, hiy, hiz
             if kind != K_BOX:
-                lox, loy, loz, hix, hiy, hiz = carry(kind, op, params, code[i, 1], lips[i],
-                                                      lox, loy, loz, hix, hiy, hiz, vs)
+                lox, loy, loz, hix, hiy, hiz, rad = carry(kind, op, params, code[i, 1], lips[i],
+                                                           lox, loy, loz, hix, hiy, hiz, rad, vs)
             i += 1
         elif kind == K_POPPT:
             vs[sp - 1, 0] *= lips[i]
             lox, loy, loz = vs[pp, 1], vs[pp, 2], vs[pp, 3]
             hix, hiy, hiz = vs[pp, 4], vs[pp, 5], vs[pp, 6]
+            rad = half_diagonal(lox, loy, loz, hix, hiy, hiz)
             pp -= 1
             i += 1
         elif kind == K_PAINT:
@@ -372,6 +385,7 @@ def _bounded(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox, o
     sp = 0
     pp = 0
     px, py, pz = ox, oy, oz
+    rad = half_diagonal(lox, loy, loz, hix, hiy, hiz)
     i = 0
     while i < n:
         op = code[i, 0]
@@ -380,7 +394,7 @@ def _bounded(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox, o
             vs[sp, 0] = vs[sp, BOUND] = vs[sp, BELOW] = vs[sp, ABOVE] = 0.0
             if not misses(boxes, i, lox, loy, loz, hix, hiy, hiz):
                 vs[sp, BOUND] = _prim_bound(op, p, code[i, 1], lips[i], ray, pp, lox, loy, loz,
-                                            hix, hiy, hiz, ox, oy, oz, dx, dy, dz, length)
+                                            hix, hiy, hiz, rad, ox, oy, oz, dx, dy, dz, length)
                 if not outside(boxes, i, px, py, pz):
                     push_primitive(op, code, i, p, code[i, 1], px, py, pz, 0, vs, sp)
             sp += 1
@@ -413,8 +427,8 @@ def _bounded(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox, o
             elif kind == K_WARP:
                 px, py, pz = apply_warp(op, p, o, px, py, pz, ps, 0, 0)
             if kind != K_BOX:
-                lox, loy, loz, hix, hiy, hiz = carry(kind, op, p, o, lips[i], lox, loy, loz,
-                                                      hix, hiy, hiz, ps)
+                lox, loy, loz, hix, hiy, hiz, rad = carry(kind, op, p, o, lips[i], lox, loy,
+                                                           loz, hix, hiy, hiz, rad, ps)
             i += 1
         elif kind == K_POPPT:  # frame distances are at most lips[i] times the outer ones
             vs[sp - 1, BOUND] *= lips[i]
@@ -423,6 +437,7 @@ def _bounded(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox, o
             px, py, pz = ps[pp, 0], ps[pp, 1], ps[pp, 2]
             lox, loy, loz = ps[pp, 3], ps[pp, 4], ps[pp, 5]
             hix, hiy, hiz = ps[pp, 6], ps[pp, 7], ps[pp, 8]
+            rad = half_diagonal(lox, loy, loz, hix, hiy, hiz)
             pp -= 1
             i += 1
         elif kind == K_PAINT:

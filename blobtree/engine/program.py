@@ -5,7 +5,8 @@ Layout (one row per instruction; docs/engine.md has the details):
 * ``code`` int64 (n, 4): opcode (``dispatch``), offset into ``params``, skip target, child count
   (for a primitive: the params offset of the texture that paints it, or -1);
 * ``params`` float64: per-instruction parameters (primitives: the 3x4 frame->local map with all
-  enclosing affine transforms folded in, R, falloff id, then the type's own ``LAYOUT``; operators
+  enclosing affine transforms folded in, R, falloff id, the map's norm, then the type's own
+  ``LAYOUT``; PUSHPT the 3x4 map into the warp's frame and its norm; operators
   their ``op_params``; warps a signed permutation and their ``LAYOUT``; paints their ``pack``);
 * ``boxes`` float64 (n, 6): the instruction's box in the current frame (world, or the space of the
   nearest enclosing warp); a point outside skips the subtree, which then contributes 0;
@@ -331,22 +332,23 @@ class _Emitter:
     def primitive(self, node: Primitive, M: np.ndarray, look: int) -> geo.Box:
         inv = geo.invert(M)
         box = node.box(M)
-        header = [*inv.reshape(-1), node.field_radius, FALLOFFS[node.falloff]]
-        lip = node.lipschitz() * geo.spectral_norm(inv[:, :3])
+        norm = geo.spectral_norm(inv[:, :3])
+        header = [*inv.reshape(-1), node.field_radius, FALLOFFS[node.falloff], norm]
+        lip = node.lipschitz() * norm
         self.add(opcode(node), header + node.pack(), box, count=look, lip=lip)
         return box
 
     def warp(self, node: Warp, M: np.ndarray, look: int) -> geo.Box:
         inv = geo.invert(M)
         box = node.box(M)
-        push = self.add(OP_PUSHPT, inv.reshape(-1), box,
-                        lip=node.lipschitz() * geo.spectral_norm(inv[:, :3]))
+        norm = geo.spectral_norm(inv[:, :3])
+        push = self.add(OP_PUSHPT, [*inv.reshape(-1), norm], box, lip=node.lipschitz() * norm)
         w = self.add(opcode(node), [*node.canonical.reshape(-1), *node.pack()], node.own_box,
                      lip=node.stretch)
         self.emit(node.child, geo.IDENTITY, look)
         self.code[w][2] = len(self.code)  # a miss jumps to POPPT
         # POPPT's lip: the factor from the warp's child frame to the outer frame
-        self.add(OP_POPPT, lip=node.stretch * geo.spectral_norm(inv[:, :3]))
+        self.add(OP_POPPT, lip=node.stretch * norm)
         self.code[push][2] = len(self.code)
         return box
 

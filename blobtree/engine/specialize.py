@@ -38,7 +38,7 @@ from .dispatch import (
     ZERO_REST,
     kind_of,
 )
-from .interp import carry, misses, support_misses
+from .interp import carry, half_diagonal, misses, support_misses
 
 
 @kernel
@@ -61,19 +61,20 @@ def _frame_misses(code, params, boxes, lips, i, lo, hi):
     box holds).  The region must be bounded."""
     # (``boxes`` stands in for carry's point stack: a region carried through a warp maps one
     # point in mode 0, which reads no stack and writes none)
-    lox, loy, loz, hix, hiy, hiz = carry(K_PUSHPT, code[i, 0], params, code[i, 1], lips[i],
-                                         lo[0], lo[1], lo[2], hi[0], hi[1], hi[2], boxes)
+    lox, loy, loz, hix, hiy, hiz, rad = carry(
+        K_PUSHPT, code[i, 0], params, code[i, 1], lips[i], lo[0], lo[1], lo[2], hi[0], hi[1],
+        hi[2], half_diagonal(lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]), boxes)
     w = i + 1
     if misses(boxes, w, lox, loy, loz, hix, hiy, hiz):
         return True
     if kind_of(code[w, 0]) != K_WARP:
         return False
-    lox, loy, loz, hix, hiy, hiz = carry(K_WARP, code[w, 0], params, code[w, 1], lips[w],
-                                         lox, loy, loz, hix, hiy, hiz, boxes)
+    lox, loy, loz, hix, hiy, hiz, rad = carry(K_WARP, code[w, 0], params, code[w, 1], lips[w],
+                                              lox, loy, loz, hix, hiy, hiz, rad, boxes)
     if misses(boxes, w + 1, lox, loy, loz, hix, hiy, hiz):
         return True
     return kind_of(code[w + 1, 0]) == K_PRIMITIVE and support_misses(
-        code, params, lips, w + 1, lox, loy, loz, hix, hiy, hiz)
+        code, params, lips, w + 1, lox, loy, loz, hix, hiy, hiz, rad)
 
 
 @kernel
@@ -170,7 +171,7 @@ def specialize(code, params, boxes, lips, lo, hi, oc, ob, ol, work):
             if kind_of(op) == K_PRIMITIVE or kind_of(op) == K_ZERO:
                 if kind_of(op) == K_ZERO or _misses(boxes, i, lo, hi) or (
                         tight and support_misses(code, params, lips, i, lo[0], lo[1], lo[2],
-                                                 hi[0], hi[1], hi[2])):
+                                                 hi[0], hi[1], hi[2], np.inf)):
                     z = True
                     if not drop:
                         n = _zero(oc, ob, ol, n)

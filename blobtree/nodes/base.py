@@ -57,8 +57,13 @@ _frozen_by: list[str] = []
 MAP = 0
 #: params[o + RADIUS]: the field radius R; params[o + FALLOFF]: the falloff's id (fields.FALLOFFS)
 RADIUS, FALLOFF = 12, 13
+#: params[o + MAP_NORM]: the spectral norm of the map's linear part (a ball of radius r in the frame
+#: lies in a ball of radius MAP_NORM r in the primitive's own coordinates)
+MAP_NORM = 14
+#: params[o + FRAME_NORM] of a PUSHPT (entering a warp's frame): its 3x4 map's norm
+FRAME_NORM = 12
 #: the primitive's own parameters start here (see :class:`Layout`)
-GEOMETRY = 14
+GEOMETRY = 15
 
 
 class Layout:
@@ -97,8 +102,9 @@ class Layout:
 class PrimitiveKernels:
     """``s(p, o, qx, qy, qz) -> (s, ds/dqx, ds/dqy, ds/dqz)``: s = r^2 / R^2 at the local point q
     (the field is the falloff of s); ``uv(p, o, qx, qy, qz) -> (u, v)`` its own texture
-    coordinates; optional ``lipschitz(p, o, lip, cx, cy, cz, hx, hy, hz)``: a bound on |grad f|
-    over the local box of centre c, half extents h (``lip``: the global bound in the frame);
+    coordinates; optional ``lipschitz(p, o, lip, cx, cy, cz, hx, hy, hz, r)``: a bound on
+    |grad f| over the local region within the box of centre c, half extents h and within the
+    ball of centre c, radius r (``lip``: the global bound in the frame);
     optional ``along(p, o, ox, oy, oz, dx, dy, dz, length)``: a bound on |df/dt| along a frame
     segment, or -1 for none.  ``o`` is the primitive's params offset."""
 

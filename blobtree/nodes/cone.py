@@ -54,13 +54,14 @@ def cone_uv(p, o, qx, qy, qz):
 
 
 @kernel
-def cone_lipschitz(p, o, lip, cx, cy, cz, hx, hy, hz):
-    """The distance-aware bound with R(t) bounded over the t the box can reach."""
+def cone_lipschitz(p, o, lip, cx, cy, cz, hx, hy, hz, r):
+    """The distance-aware bound with R(t) bounded over the t the region (within the box and
+    the ball of radius r about its centre) can reach."""
     a = o + A
     ax, ay, az = p[a], p[a + 1], p[a + 2]
     ux, uy, uz = p[o + B] - ax, p[o + B + 1] - ay, p[o + B + 2] - az
     length = math.sqrt(ux * ux + uy * uy + uz * uz)
-    rho = math.sqrt(hx * hx + hy * hy + hz * hz)
+    rho = min(math.sqrt(hx * hx + hy * hy + hz * hz), r)
     tc = ((cx - ax) * ux + (cy - ay) * uy + (cz - az) * uz) / (length * length)
     t = min(max(tc, 0.0), 1.0)
     dx, dy, dz = cx - ax - t * ux, cy - ay - t * uy, cz - az - t * uz

@@ -48,19 +48,25 @@ def ellipsoid_uv(p, o, qx, qy, qz):
 
 
 @kernel
-def ellipsoid_lipschitz(p, o, lip, cx, cy, cz, hx, hy, hz):
-    """Over the local box (centre c, half extents h): in the stretched coordinates
-    u = (q - centre) / R the field is a unit point's, whose slope is bounded by the nearest and
-    farthest |u| in the box; |grad_q f| <= |grad_u f| / min R, and ``lip`` carries 1 / min R."""
-    c, r = o + CENTER, o + RADII
-    near2 = far2 = 0.0
+def ellipsoid_lipschitz(p, o, lip, cx, cy, cz, hx, hy, hz, r):
+    """Over the local region (within the box of centre c, half extents h, and the ball of
+    radius r about c): in the stretched coordinates u = (q - centre) / R the field is a unit
+    point's, whose slope is bounded by the nearest and farthest |u| in the region (the ball
+    stretches to within r / min R of u(c)); |grad_q f| <= |grad_u f| / min R, and ``lip``
+    carries 1 / min R."""
+    c, rr = o + CENTER, o + RADII
+    near2 = far2 = uc2 = 0.0
     for k in range(3):
-        off = abs((cx, cy, cz)[k] - p[c + k]) / p[r + k]
-        width = (hx, hy, hz)[k] / p[r + k]
+        off = abs((cx, cy, cz)[k] - p[c + k]) / p[rr + k]
+        width = (hx, hy, hz)[k] / p[rr + k]
         gap = max(off - width, 0.0)
         near2 += gap * gap
         far2 += (off + width) * (off + width)
-    return lip * kmath.slope_at(int(p[o + FALLOFF]), math.sqrt(near2), math.sqrt(far2))
+        uc2 += off * off
+    reach = r / min(p[rr], p[rr + 1], p[rr + 2])
+    uc = math.sqrt(uc2)
+    return lip * kmath.slope_at(int(p[o + FALLOFF]), max(math.sqrt(near2), uc - reach),
+                                min(math.sqrt(far2), uc + reach))
 
 
 @register

@@ -43,17 +43,20 @@ def point_uv(p, o, qx, qy, qz):
 
 
 @kernel
-def point_lipschitz(p, o, lip, cx, cy, cz, hx, hy, hz):
-    """Distances from the centre to the (local) box itself, per axis: nearest and farthest."""
+def point_lipschitz(p, o, lip, cx, cy, cz, hx, hy, hz, r):
+    """Nearest and farthest distances from the centre to the (local) region: to the box, per
+    axis, and to the ball of radius r about its centre; the tighter of each."""
     c = o + CENTER
-    dmin2 = dmax2 = 0.0
+    dmin2 = dmax2 = dc2 = 0.0
     for off, half in ((cx - p[c], hx), (cy - p[c + 1], hy), (cz - p[c + 2], hz)):
         gap = max(abs(off) - half, 0.0)
         dmin2 += gap * gap
         dmax2 += (abs(off) + half) ** 2
+        dc2 += off * off
+    dc = math.sqrt(dc2)
     radius = p[o + RADIUS]
-    return lip * kmath.slope_at(int(p[o + FALLOFF]), math.sqrt(dmin2) / radius,
-                                math.sqrt(dmax2) / radius)
+    return lip * kmath.slope_at(int(p[o + FALLOFF]), max(math.sqrt(dmin2), dc - r) / radius,
+                                min(math.sqrt(dmax2), dc + r) / radius)
 
 
 @kernel
