@@ -42,6 +42,31 @@ def test_bound_follows_the_distance_to_the_centre():
     assert prog.lipschitz((c - 0.01)[None], (c + 0.01)[None])[0] == 0.0
 
 
+def test_a_warps_region_is_a_ball_not_the_cube_around_it():
+    """Through a warp the region is a ball about the warped centre (the query map moves points
+    by at most its stretch times the distance); the cube around that ball reaches sqrt(3) times
+    further.  This box's ball stays clear of the bent cone's support (its field is 0 all over
+    the box) though the cube around the ball reaches it: the bound is 0, and a bent cone's
+    bound holds over boxes around it."""
+    cone = bt.Cone((0, 0, 0), (2, 0, 0), radius_a=0.3, radius_b=0.3).bend(30.0, 2.0)
+    prog = cone.program()
+    lo, hi = np.array([-0.46, 0.29, 0.29]), np.array([-0.14, 0.61, 0.61])
+    rng = np.random.default_rng(0)
+    assert np.all(cone.field(rng.uniform(lo, hi, (20000, 3))) == 0.0)
+    # the cube would reach it: its corner is within the cone's support in the frame (before
+    # the bend, the warp moves nothing: the frame point is the point, the cone's end is 0)
+    reach = cone.stretch * np.linalg.norm(hi - lo) / 2.0
+    assert np.linalg.norm((lo + hi) / 2.0) - np.sqrt(3.0) * reach < 0.3 <= \
+        np.linalg.norm((lo + hi) / 2.0) - reach
+    assert prog.lipschitz(lo[None], hi[None])[0] == 0.0
+    for _ in range(100):
+        c = rng.uniform(*prog.bounds)
+        e = rng.uniform(0.0, 0.15, 3)
+        bound = prog.lipschitz((c - e)[None], (c + e)[None])[0]
+        P = c + rng.uniform(-1.0, 1.0, (1500, 3)) * e
+        assert np.linalg.norm(prog.gradient(P), axis=1).max() <= bound * (1 + 1e-9) + 1e-12
+
+
 _A = bt.Point(radius=1.0)
 _B = bt.Point(radius=0.6, center=(0.55, 0.1, 0.0))
 
