@@ -454,8 +454,9 @@ def _bounded(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox, o
 def lipschitz_box(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, vs):
     """A bound on |grad f| over the box [lo, hi] (world coordinates): the tree's Lipschitz rules
     (sum at blends, max at CSG) over only the primitives whose boxes meet it, each with its
-    distance-aware bound; through a warp the box is carried into the warp's child frame (as a
-    cube around the warped centre, grown by the warp's stretch) and the result scaled back."""
+    distance-aware bound; through a warp the region is carried into the warp's child frame (as
+    the ball about the warped centre grown by the warp's stretch, and the cube around it:
+    :func:`carry`) and the result scaled back."""
     return _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, False, 0.0, 0.0,
                       0.0, 0.0, 0.0, 0.0, 0.0, vs)
 
