@@ -170,8 +170,9 @@ def specialize(code, params, boxes, lips, lo, hi, oc, ob, ol, work):
             op = code[i, 0]
             if kind_of(op) == K_PRIMITIVE or kind_of(op) == K_ZERO:
                 if kind_of(op) == K_ZERO or _misses(boxes, i, lo, hi) or (
-                        tight and support_misses(code, params, lips, i, lo[0], lo[1], lo[2],
-                                                 hi[0], hi[1], hi[2], np.inf)):
+                        tight and support_misses(
+                            code, params, lips, i, lo[0], lo[1], lo[2], hi[0], hi[1], hi[2],
+                            half_diagonal(lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]))):
                     z = True
                     if not drop:
                         n = _zero(oc, ob, ol, n)
