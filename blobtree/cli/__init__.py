@@ -17,7 +17,7 @@ def start_command() -> None:
     """Process-wide set-up of a ``blobtree`` command, before it runs (not on import, so code
     that imports the CLI keeps the garbage collector as it was)."""
     # The ~70,000 objects numpy and numba create on import live as long as the command: frozen,
-    # they are no longer walked by every full collection (numba's target start triggers one).
+    # they are no longer walked by every full collection.
     gc.freeze()
 
 
