@@ -29,7 +29,7 @@ from numba.core.runtime import rtsys
 
 _PACKAGE = Path(__file__).resolve().parent
 #: Parts of the package no kernel depends on: code numba never compiles, and the mesher, whose
-#: kernels are numba's own (cached per source file, as they call no kernel of the engine).
+#: kernels (:func:`cached`) are keyed on their own source file, as they call no engine kernel.
 _NOT_COMPILED = {"cli", "mesh", "models", "textures.py"}
 
 
