@@ -179,18 +179,27 @@ def test_cell_sorted_batches_equal_reference(tree, seed):
 
 
 def test_cell_sorted_blocks_and_order(monkeypatch):
-    """Many partition blocks (the last one partial), points outside the grid and any order of
-    the points give the values of the one-point-at-a-time path."""
-    from blobtree.engine import batch
+    """Many partition blocks (the last one partial), points outside the grid, points in cells
+    whose program is a lone zero (answered while partitioning) and any order of the points give
+    the values of the one-point-at-a-time path: field, gradient and colour."""
+    from blobtree.engine import GRID_MIN_POINTS, batch
+    from blobtree.engine.specialize import cell_of
 
     monkeypatch.setattr(batch, "BLOCK", 4096)
     tree = (bt.models.whorl126().bend(30.0, 2.0) | bt.Cone((0, 0, 0), (0, 3, 0), 0.5, 0.2)
             ) - bt.Torus(1.0, radius=0.4)
     prog = tree.program()
     P = sample_points(tree, 50_001, 3, grow=0.5)
-    one_by_one = prog.evaluate(P)[0]
+    chunks = range(0, len(P), GRID_MIN_POINTS - 1)  # below the grid's threshold: point by point
+    one_by_one = [np.concatenate(r) for r in zip(*(prog.evaluate(P[a:a + GRID_MIN_POINTS - 1])
+                                                   for a in chunks), strict=True)]
+    cells = np.array([cell_of(*p, *prog.grid.frame) for p in P])
+    dead = (cells >= 0) & (prog.grid.live[cells] == 0)
+    assert np.count_nonzero(dead) > 500 and np.count_nonzero(cells < 0) > 500
     f = prog.field(P)
-    np.testing.assert_array_equal(f, one_by_one)
+    np.testing.assert_array_equal(f, one_by_one[0])
+    for got, want in zip(prog.evaluate(P), one_by_one, strict=True):
+        np.testing.assert_array_equal(got, want)
     perm = np.random.default_rng(4).permutation(len(P))
     np.testing.assert_array_equal(prog.field(P[perm]), f[perm])
     assert np.count_nonzero(f) > 1000 and np.count_nonzero(f == 0.0) > 1000

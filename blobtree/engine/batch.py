@@ -2,9 +2,10 @@
 
 ``eval_point`` runs a program one point at a time, so every instruction pays its dispatch and
 its box test per point, and points in random order fetch a different cell program each time.
-Here blocks of points are partitioned by grid cell (``specialize.build_grid``) with a parallel
-counting sort; the points of one cell then run that cell's short program together, each
-instruction looping over up to ``SUB`` points at once.  The loops have no per-point branches, so
+Here blocks of points are partitioned by grid cell (``Program.grid``) with a parallel counting
+sort (points in cells whose program is a lone zero are answered while counting, not sorted);
+the points of one cell then run that cell's short program together, each instruction looping
+over up to ``SUB`` points at once.  The loops have no per-point branches, so
 the compiler vectorises them (numpy's error model: no division checks inside them).
 
 The value stack holds one row of ``SUB`` values per entry.  A box test (BOX, PUSHPT, warps) skips
@@ -122,36 +123,43 @@ def eval_rows(code, params, boxes, a, b, pts, nb, vs, tmp):
 
 
 @kernel(nogil=True)
-def _bucket_counts(t0, t1, P, lo, size, dims, cell, counts):
+def _bucket_counts(t0, t1, P, lo, scale, dims, live, cell, counts, out_f, out_g, out_c):
     """Pass 1 of the partition, for parts t0..t1 - 1 of the points (one per row of counts):
-    each point's cell (-1 outside the grid), and how many of the part's points fall in each."""
+    each point's cell, and how many of the part's points fall in each.  Every point's results
+    start as a zero field and gradient, grey: final for a point outside the grid or in a cell
+    whose program is a lone zero (``live`` 0), which gets cell -1 and is not sorted."""
     n = P.shape[0]
     nparts = counts.shape[0]
+    full = out_g.shape[0] > 0
     for t in range(t0, t1):
         counts[t, :] = 0
         for j in range(t * n // nparts, (t + 1) * n // nparts):
-            c = cell_of(P[j, 0], P[j, 1], P[j, 2], lo, size, dims)
-            cell[j] = c
-            if c >= 0:
-                counts[t, c] += 1
+            c = cell_of(P[j, 0], P[j, 1], P[j, 2], lo, scale, dims)
+            out_f[j] = 0.0
+            if full:
+                for r in range(3):
+                    out_g[j, r] = 0.0
+                    out_c[j, r] = DEFAULT_GREY
+            k = max(c, 0)
+            ok = np.int64(live[k]) * (c >= 0)  # no branch: live and dead points mix at random
+            counts[t, k] += ok
+            cell[j] = k * ok - (1 - ok)
 
 
 @kernel(nogil=True)
-def _bucket_scatter(t0, t1, P, cell, offsets, xyz, pos):
-    """Pass 2, for parts t0..t1 - 1: copy each point to its cell's run of xyz (M, 3), recording
-    where in pos."""
+def _bucket_scatter(t0, t1, P, cell, offsets, xyz, src):
+    """Pass 2, for parts t0..t1 - 1: copy each point of a live cell to its cell's run of xyz
+    (M, 3), recording where it came from in src."""
     n = P.shape[0]
     nparts = offsets.shape[0]
     for t in range(t0, t1):
         for j in range(t * n // nparts, (t + 1) * n // nparts):
             c = cell[j]
-            if c < 0:
-                pos[j] = -1
-            else:
+            if c >= 0:
                 k = offsets[t, c]
                 offsets[t, c] = k + 1
                 xyz[k, 0], xyz[k, 1], xyz[k, 2] = P[j, 0], P[j, 1], P[j, 2]
-                pos[j] = k
+                src[k] = j
 
 
 @kernel
@@ -265,17 +273,17 @@ def _eval_runs(t0, t1, start, gc, gb, params, first, xyz, depth, slab, vals):
 
 
 @kernel(nogil=True)
-def unsort(j0, j1, vals, pos, out_f, out_g, out_c):
-    """Results back in the points' order, point j's from vals[pos[j]] (pos[j] < 0, outside the
-    grid: a zero field, grey), split into the field, gradient and colour."""
+def put_back(k0, k1, vals, src, out_f, out_g, out_c):
+    """Results k0..k1 - 1 back in the points' order, vals[k] being point src[k]'s, split into
+    the field, gradient and colour."""
     full = vals.shape[1] == 7
-    for j in range(j0, j1):
-        q = pos[j]
-        out_f[j] = vals[q, 0] if q >= 0 else 0.0
+    for k in range(k0, k1):
+        j = src[k]
+        out_f[j] = vals[k, 0]
         if full:
             for r in range(3):
-                out_g[j, r] = vals[q, 1 + r] if q >= 0 else 0.0
-                out_c[j, r] = vals[q, 4 + r] if q >= 0 else DEFAULT_GREY
+                out_g[j, r] = vals[k, 1 + r]
+                out_c[j, r] = vals[k, 4 + r]
 
 
 #: Points partitioned at a time (scratch: ~60 bytes per point of a block).
@@ -289,27 +297,29 @@ def eval_sorted(grid: Grid, params: np.ndarray, depth: int, P: np.ndarray, out_f
     """Field values of the (N, 3) points P into out_f (and, given out_g and out_c (N, 3), the
     gradients and colours), through ``grid`` (program.Grid): blocks of points are partitioned
     by cell in parallel parts, evaluated cell by cell, and the results put back in the points'
-    order."""
-    lo, size, dims = grid.frame
-    ncell = len(grid.start) - 1
+    order.  Points in cells whose program is a lone zero are answered while partitioning."""
+    lo, scale, dims = grid.frame
+    live = grid.live
+    ncell = len(live)
     nparts = threads()
     counts = np.empty((nparts, ncell), dtype=np.int64)
     first = np.zeros(ncell + 1, dtype=np.int64)
     m = min(len(P), BLOCK)
-    cell, pos = np.empty(m, dtype=np.int32), np.empty(m, dtype=np.int32)
+    cell, src = np.empty(m, dtype=np.int32), np.empty(m, dtype=np.int32)
     xyz, vals = np.empty((m, 3)), np.empty((m, 1 if out_g is None else 7))
     if out_g is None:
         out_g = out_c = np.empty((0, 3))
     for a in range(0, len(P), BLOCK):
         Q = P[a:a + BLOCK]
-        parallel_for(_bucket_counts, nparts, Q, lo, size, dims, cell, counts, parts=nparts)
+        f, g, c = out_f[a:a + BLOCK], out_g[a:a + BLOCK], out_c[a:a + BLOCK]
+        parallel_for(_bucket_counts, nparts, Q, lo, scale, dims, live, cell, counts, f, g, c,
+                     parts=nparts)
         np.cumsum(counts.sum(axis=0), out=first[1:])
         offsets = first[:-1] + np.cumsum(counts, axis=0) - counts  # each part's place
         k = int(first[-1])
-        parallel_for(_bucket_scatter, nparts, Q, cell, offsets, xyz, pos, parts=nparts)
+        parallel_for(_bucket_scatter, nparts, Q, cell, offsets, xyz, src, parts=nparts)
         eval_grouped(grid, params, depth, xyz[:k], first, vals)
-        parallel_for(unsort, len(Q), vals, pos, out_f[a:a + BLOCK], out_g[a:a + BLOCK],
-                     out_c[a:a + BLOCK])
+        parallel_for(put_back, k, vals, src, f, g, c)
 
 
 def eval_grouped(regions: Regions, params: np.ndarray, depth: int, xyz: np.ndarray,

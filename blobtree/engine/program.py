@@ -151,7 +151,7 @@ class Program:
         """(field, gradient, colour) of points grouped by region, as :meth:`field_grouped`."""
         vals = self._run_grouped(regions, P, first, 7)
         f, g, c = np.empty(len(P)), np.empty((len(P), 3)), np.empty((len(P), 3))
-        parallel_for(B.unsort, len(P), vals, np.arange(len(P), dtype=np.int32), f, g, c)
+        parallel_for(B.put_back, len(P), vals, np.arange(len(P), dtype=np.int32), f, g, c)
         return f, g, c
 
     def _run_grouped(self, regions: Regions, P: np.ndarray, first: np.ndarray, width: int

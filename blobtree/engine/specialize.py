@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -243,8 +244,15 @@ class Grid(Regions):
 
     @property
     def frame(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(lo, size, dims) of the grid."""
-        return self.lo, self.size, self.dims
+        """(lo, 1 / size, dims) of the grid, as ``cell_of`` takes them."""
+        return self.lo, 1.0 / self.size, self.dims
+
+    @cached_property
+    def live(self) -> np.ndarray:
+        """1 for each cell whose program is more than a lone ZERO (its field may be non-zero),
+        else 0: ``batch.eval_sorted`` answers the points of dead cells without evaluating."""
+        lone = self.start[1:] - self.start[:-1] == 1
+        return (~lone | (self.code[self.start[:-1], 0] != OP_ZERO)).astype(np.uint8)
 
 
 def cell_boxes(lo, size, dims, pad) -> tuple[np.ndarray, np.ndarray]:
@@ -303,12 +311,13 @@ def specialize_regions(code, params, boxes, lips, rlo, rhi, start=None) -> Regio
 
 
 @kernel
-def cell_of(x, y, z, lo, size, dims):
-    """Index of the grid cell holding (x, y, z), or -1 outside the grid."""
+def cell_of(x, y, z, lo, scale, dims):
+    """Index of the grid cell holding (x, y, z) (``scale`` = 1 / the cell size), or -1 outside
+    the grid."""
     c = 0
     v = (x, y, z)
     for ax in range(3):
-        t = (v[ax] - lo[ax]) / size[ax]
+        t = (v[ax] - lo[ax]) * scale[ax]
         if not (0.0 <= t <= dims[ax]):
             return -1
         c = c * dims[ax] + min(int(t), dims[ax] - 1)
