@@ -71,6 +71,21 @@ class _EngineCache(_QuickCache):
         return (sig, codegen.magic_tuple(), (engine_key(), code, self._tag))
 
 
+class _LazyCache:
+    """A numba cache made on its first use.  Making one probes the cache directory (a mkdir and
+    a test file per kernel: about 20 ms for the package's kernels at import), and a process
+    loads few of its kernels by name: the rest are compiled into their callers."""
+
+    def __init__(self, make: Callable[[], FunctionCache]) -> None:
+        self._make = make
+        self._real: FunctionCache | None = None
+
+    def __getattr__(self, name: str):
+        if self._real is None:
+            self._real = self._make()
+        return getattr(self._real, name)
+
+
 def cached(fn: Callable | None = None, **options):
     """``numba.njit(cache=True, **options)``, its cache loading without numba's registry refresh
     (:class:`_QuickCache`): for kernels that call no engine kernel (the mesher's), so that their
@@ -78,7 +93,7 @@ def cached(fn: Callable | None = None, **options):
 
     def wrap(f: Callable):
         dispatcher = numba.njit(**options)(f)
-        dispatcher._cache = _QuickCache(f)
+        dispatcher._cache = _LazyCache(lambda: _QuickCache(f))
         return dispatcher
 
     return wrap(fn) if fn is not None else wrap
@@ -102,7 +117,7 @@ def kernel(fn: Callable | None = None, *, tag: str = "", nrt: bool = False,
         if not nrt:
             opts["_nrt"] = False
         dispatcher = numba.njit(**opts)(f)
-        dispatcher._cache = _EngineCache(f, tag)
+        dispatcher._cache = _LazyCache(lambda: _EngineCache(f, tag))
         if not literal:
             dispatcher.get_call_template = functools.partial(_call_template, dispatcher)
         return dispatcher
