@@ -12,6 +12,9 @@ from ..files import atomic_path
 
 _FORMATS = {".png": "PNG", ".jpg": "JPEG", ".jpeg": "JPEG", ".tif": "TIFF", ".tiff": "TIFF",
             ".bmp": "BMP", ".ppm": "PPM"}
+#: zlib level of PNG files: Pillow's default 6 takes 1.2-1.4x as long (whorl126 at 1600x1600:
+#: 121 against 85 ms) for files 3-10% smaller.
+PNG_LEVEL = 4
 
 
 def save_image(img: np.ndarray, path: str | os.PathLike) -> Path:
@@ -26,5 +29,6 @@ def save_image(img: np.ndarray, path: str | os.PathLike) -> Path:
         raise ValueError(f"img must be a non-empty (H, W, 3) uint8 array, got shape {img.shape} "
                          f"dtype {img.dtype}")
     with atomic_path(path) as tmp:
-        Image.fromarray(img, "RGB").save(tmp, format=fmt)
+        options = {"compress_level": PNG_LEVEL} if fmt == "PNG" else {}
+        Image.fromarray(img, "RGB").save(tmp, format=fmt, **options)
     return path
