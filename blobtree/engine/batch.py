@@ -123,26 +123,21 @@ def eval_rows(code, params, boxes, a, b, pts, nb, vs, tmp):
 
 
 @kernel(nogil=True)
-def _bucket_counts(t0, t1, P, lo, scale, dims, live, cell, counts, out_f, out_g, out_c):
+def _bucket_counts(t0, t1, P, lo, scale, dims, live, cell, counts, out_f):
     """Pass 1 of the partition, for parts t0..t1 - 1 of the points (one per row of counts):
-    each point's cell, and how many of the part's points fall in each.  Every point's results
-    start as a zero field and gradient, grey: final for a point outside the grid or in a cell
-    whose program is a lone zero (``live`` 0), which gets cell -1 and is not sorted."""
+    each point's cell, and how many of the part's points fall in each.  Every point's field
+    starts as 0: final for a point outside the grid or in a cell whose program is a lone zero
+    (``live`` 0), which gets cell -1 and is not sorted."""
     n = P.shape[0]
     nparts = counts.shape[0]
-    full = out_g.shape[0] > 0
     for t in range(t0, t1):
-        counts[t, :] = 0
+        row = counts[t]
+        row[:] = 0
         for j in range(t * n // nparts, (t + 1) * n // nparts):
-            c = cell_of(P[j, 0], P[j, 1], P[j, 2], lo, scale, dims)
+            k, inside = cell_of(P[j, 0], P[j, 1], P[j, 2], lo, scale, dims)
             out_f[j] = 0.0
-            if full:
-                for r in range(3):
-                    out_g[j, r] = 0.0
-                    out_c[j, r] = DEFAULT_GREY
-            k = max(c, 0)
-            ok = np.int64(live[k]) * (c >= 0)  # no branch: live and dead points mix at random
-            counts[t, k] += ok
+            ok = np.int64(live[k]) * inside  # no branch: live and dead points mix at random
+            row[k] += ok
             cell[j] = k * ok - (1 - ok)
 
 
@@ -312,7 +307,8 @@ def eval_sorted(grid: Grid, params: np.ndarray, depth: int, P: np.ndarray, out_f
     for a in range(0, len(P), BLOCK):
         Q = P[a:a + BLOCK]
         f, g, c = out_f[a:a + BLOCK], out_g[a:a + BLOCK], out_c[a:a + BLOCK]
-        parallel_for(_bucket_counts, nparts, Q, lo, scale, dims, live, cell, counts, f, g, c,
+        g[:], c[:] = 0.0, DEFAULT_GREY  # those of a zero field, as the field's own 0 below
+        parallel_for(_bucket_counts, nparts, Q, lo, scale, dims, live, cell, counts, f,
                      parts=nparts)
         np.cumsum(counts.sum(axis=0), out=first[1:])
         offsets = first[:-1] + np.cumsum(counts, axis=0) - counts  # each part's place

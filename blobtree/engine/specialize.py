@@ -312,13 +312,13 @@ def specialize_regions(code, params, boxes, lips, rlo, rhi, start=None) -> Regio
 
 @kernel
 def cell_of(x, y, z, lo, scale, dims):
-    """Index of the grid cell holding (x, y, z) (``scale`` = 1 / the cell size), or -1 outside
-    the grid."""
-    c = 0
-    v = (x, y, z)
-    for ax in range(3):
-        t = (v[ax] - lo[ax]) * scale[ax]
-        if not (0.0 <= t <= dims[ax]):
-            return -1
-        c = c * dims[ax] + min(int(t), dims[ax] - 1)
-    return c
+    """(Index of the grid cell nearest (x, y, z), whether the point is in the grid); ``scale``
+    is 1 / the cell size.  No branches: the partition's points come in any order."""
+    tx = (x - lo[0]) * scale[0]
+    ty = (y - lo[1]) * scale[1]
+    tz = (z - lo[2]) * scale[2]
+    inside = (0.0 <= tx <= dims[0]) & (0.0 <= ty <= dims[1]) & (0.0 <= tz <= dims[2])
+    ix = min(max(int(tx), 0), dims[0] - 1)
+    iy = min(max(int(ty), 0), dims[1] - 1)
+    iz = min(max(int(tz), 0), dims[2] - 1)
+    return (ix * dims[1] + iy) * dims[2] + iz, inside
