@@ -73,7 +73,7 @@ class _EngineCache(_QuickCache):
 
 class _LazyCache:
     """A numba cache made on its first use.  Making one probes the cache directory (a mkdir and
-    a test file per kernel: about 20 ms for the package's kernels at import), and a process
+    a test file per kernel: 20-40 ms for the package's 225 at import), and a process
     loads few of its kernels by name: the rest are compiled into their callers."""
 
     def __init__(self, make: Callable[[], FunctionCache]) -> None:

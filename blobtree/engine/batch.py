@@ -5,8 +5,8 @@ its box test per point, and points in random order fetch a different cell progra
 Here blocks of points are partitioned by grid cell (``Program.grid``) with a parallel counting
 sort (points in cells whose program is a lone zero are answered while counting, not sorted);
 the points of one cell then run that cell's short program together, each instruction looping
-over up to ``SUB`` points at once.  The loops have no per-point branches, so
-the compiler vectorises them (numpy's error model: no division checks inside them).
+over up to ``SUB`` points at once.  The loops have no per-point branches, so the compiler
+vectorises them (numpy's error model: no division checks inside them).
 
 The value stack holds one row of ``SUB`` values per entry.  A box test (BOX, PUSHPT, warps) skips
 its subtree only when no point of the batch is inside; the other points of the batch then
@@ -281,7 +281,7 @@ def put_back(k0, k1, vals, src, out_f, out_g, out_c):
                 out_c[j, r] = vals[k, 4 + r]
 
 
-#: Points partitioned at a time (scratch: ~60 bytes per point of a block).
+#: Points partitioned at a time (scratch: 40 bytes per point of a block, 88 with gradients).
 BLOCK = 1 << 20
 #: Sorted points per evaluation task.
 SLAB = 1 << 13
@@ -307,7 +307,7 @@ def eval_sorted(grid: Grid, params: np.ndarray, depth: int, P: np.ndarray, out_f
     for a in range(0, len(P), BLOCK):
         Q = P[a:a + BLOCK]
         f, g, c = out_f[a:a + BLOCK], out_g[a:a + BLOCK], out_c[a:a + BLOCK]
-        g[:], c[:] = 0.0, DEFAULT_GREY  # those of a zero field, as the field's own 0 below
+        g[:], c[:] = 0.0, DEFAULT_GREY  # a zero field's (the counting pass zeroes the field)
         parallel_for(_bucket_counts, nparts, Q, lo, scale, dims, live, cell, counts, f,
                      parts=nparts)
         np.cumsum(counts.sum(axis=0), out=first[1:])
