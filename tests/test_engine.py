@@ -205,6 +205,25 @@ def test_cell_sorted_blocks_and_order(monkeypatch):
     assert np.count_nonzero(f) > 1000 and np.count_nonzero(f == 0.0) > 1000
 
 
+def test_cell_sorted_batches_take_points_far_outside():
+    """Infinite, huge and NaN coordinates in a large batch fall outside the grid (the cell
+    lookup converts no such value to an integer): they get a zero field, and every other
+    point keeps the one-point path's value."""
+    from blobtree.engine import GRID_MIN_POINTS
+
+    prog = bt.models.whorl126().program()
+    P = sample_points(bt.models.whorl126(), GRID_MIN_POINTS + 5000, 5)
+    far = np.zeros(len(P), dtype=bool)
+    for axis, step, value in ((0, 7, np.inf), (1, 11, -1e300), (2, 13, np.nan)):
+        P[::step, axis] = value
+        far[::step] = True
+    f = prog.field(P)
+    chunks = [prog.field(P[a:a + GRID_MIN_POINTS - 1])
+              for a in range(0, len(P), GRID_MIN_POINTS - 1)]
+    np.testing.assert_array_equal(f[~far], np.concatenate(chunks)[~far])
+    assert np.all(f[far] == 0.0) and np.count_nonzero(f[~far]) > 1000
+
+
 @examples(0.25)
 @given(trees(), st.integers(0, 2**31))
 def test_points_grouped_by_region_equal_reference(tree, seed):

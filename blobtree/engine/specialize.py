@@ -318,7 +318,9 @@ def cell_of(x, y, z, lo, scale, dims):
     ty = (y - lo[1]) * scale[1]
     tz = (z - lo[2]) * scale[2]
     inside = (0.0 <= tx <= dims[0]) & (0.0 <= ty <= dims[1]) & (0.0 <= tz <= dims[2])
-    ix = min(max(int(tx), 0), dims[0] - 1)
-    iy = min(max(int(ty), 0), dims[1] - 1)
-    iz = min(max(int(tz), 0), dims[2] - 1)
+    if not inside:  # (a select, not a branch) NaN and huge values have no integer part
+        tx = ty = tz = 0.0
+    ix = min(int(tx), dims[0] - 1)
+    iy = min(int(ty), dims[1] - 1)
+    iz = min(int(tz), dims[2] - 1)
     return (ix * dims[1] + iy) * dims[2] + iz, inside
