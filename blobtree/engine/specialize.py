@@ -139,6 +139,7 @@ def specialize(code, params, boxes, lips, lo, hi, oc, ob, ol, work):
     f_drop = work[6]    # may this subtree vanish if zero?
     ncode = code.shape[0]
     tight = _finite(lo, hi)  # also test frames and supports, beyond the boxes
+    rad = half_diagonal(lo[0], lo[1], lo[2], hi[0], hi[1], hi[2])  # the region's ball
     top = -1
     n = 0
     i = 0
@@ -171,9 +172,8 @@ def specialize(code, params, boxes, lips, lo, hi, oc, ob, ol, work):
             op = code[i, 0]
             if kind_of(op) == K_PRIMITIVE or kind_of(op) == K_ZERO:
                 if kind_of(op) == K_ZERO or _misses(boxes, i, lo, hi) or (
-                        tight and support_misses(
-                            code, params, lips, i, lo[0], lo[1], lo[2], hi[0], hi[1], hi[2],
-                            half_diagonal(lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]))):
+                        tight and support_misses(code, params, lips, i, lo[0], lo[1], lo[2],
+                                                 hi[0], hi[1], hi[2], rad)):
                     z = True
                     if not drop:
                         n = _zero(oc, ob, ol, n)
@@ -242,7 +242,7 @@ class Grid(Regions):
     size: np.ndarray
     dims: np.ndarray
 
-    @property
+    @cached_property
     def frame(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(lo, 1 / size, dims) of the grid, as ``cell_of`` takes them."""
         return self.lo, 1.0 / self.size, self.dims
