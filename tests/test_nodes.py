@@ -23,6 +23,9 @@ def test_falloff_ends_and_slopes(name):
     slope = np.abs(np.gradient(f, r))
     assert slope[0] < 1e-4 and slope[-1] < 1e-4
     assert slope.max() <= fields.SLOPE[name]  # the Lipschitz constant we use is an upper bound
+    # |df/ds| falls with s (a ray's rise bound, kmath.quadric_rise, takes it at the least s)
+    ds = np.abs(fields.falloff_ds(fid, r * r))
+    assert np.all(np.diff(ds) <= 1e-15)
 
 
 def test_falloff_values_against_formulas():

@@ -93,7 +93,7 @@ def test_csg_bound_drops_the_child_that_cannot_set_the_field(tree):
         e = rng.uniform(0.002, 0.05, 3)
         rule = K.lipschitz_box(code, params, boxes, lips, *(c - e), *(c + e), vs)
         f, bound, below, above = K.bound_box_at(code, params, boxes, lips, *(c - e), *(c + e),
-                                                *c, True, vs, ps)
+                                                *c, 0.0, 0.0, 0.0, -1.0, True, vs, ps)
         P = c + rng.uniform(-1.0, 1.0, (400, 3)) * e
         fp, gp, _ = prog.evaluate(P)
         assert np.linalg.norm(gp, axis=1).max() <= bound * (1 + 1e-9) + 1e-12

@@ -115,7 +115,8 @@ def check_box_bounds(tree: bt.Node, seed: int, frac: float, count: int) -> None:
         distance = np.linalg.norm(Q - x, axis=1)
         for values in (True, False):
             f, bound, below, above = K.bound_box_at(code, params, boxes, lips, *corner,
-                                                    *(corner + size), *x, values, vs, ps)
+                                                    *(corner + size), *x, 0.0, 0.0, 0.0, -1.0,
+                                                    values, vs, ps)
             np.testing.assert_allclose(f, tree.reference(x[None])[0][0], rtol=1e-9,
                                        atol=1e-12)
             assert np.linalg.norm(gq, axis=1).max() <= bound * (1 + 1e-9) + 1e-12

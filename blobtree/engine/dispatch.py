@@ -73,6 +73,9 @@ LIPSCHITZ = _table("LIPSCHITZ", LIPSCHITZ_RULES, "sum", "sum")
 #: Whether an opcode's type has a value-aware ``bound`` kernel (a CSG operator's).
 VALUE_BOUND = np.array([c.KIND == "operator" and c.KERNELS.bound is not None for c in TYPES]
                        + [False] * 4)
+#: Whether an opcode's type is an ``INCREASING`` operator (its rule bounds how fast it rises
+#: from how fast its children rise).
+INCREASING = np.array([getattr(c, "INCREASING", False) for c in TYPES] + [False] * 4)
 #: Value-stack rows an operator needs beyond its children.
 STACK = np.array([getattr(c, "STACK", 0) for c in TYPES] + [0] * 4, dtype=np.int64)
 
@@ -107,11 +110,11 @@ def _dispatcher(name: str, args: str, kind: str, case: str, miss: str) -> str:
 
 #: Kernels compiled into their dispatcher (the rest are called): the bounds the ray tracer asks
 #: for at every step, and the operators, whose work is small next to a call.
-INLINE_KERNELS = ("along", "lipschitz", "combine", "rows", "bound", "map")
+INLINE_KERNELS = ("along", "lipschitz", "rise", "combine", "rows", "bound", "map")
 #: Dispatchers compiled into their one caller (``warp_map``'s, ``interp.apply_warp``, is itself
 #: compiled into its callers).
-INLINE_DISPATCHERS = ("prim_s", "prim_along", "prim_lipschitz", "combine", "combine_rows",
-                      "op_bound", "warp_map")
+INLINE_DISPATCHERS = ("prim_s", "prim_along", "prim_lipschitz", "prim_rise", "combine",
+                      "combine_rows", "op_bound", "warp_map")
 
 
 def _kernels() -> dict[str, object]:
@@ -157,6 +160,10 @@ SOURCE = "".join([
     _dispatcher("prim_along", "p, o, ox, oy, oz, dx, dy, dz, length", "primitive",
                 lambda c: ("return K.along(p, o, ox, oy, oz, dx, dy, dz, length)"
                            if c.KERNELS.along else "return -1.0"), "return NAN"),
+    _dispatcher("prim_rise", "p, o, lox, loy, loz, hix, hiy, hiz, dx, dy, dz, spread",
+                "primitive",
+                lambda c: ("return K.rise(p, o, lox, loy, loz, hix, hiy, hiz, dx, dy, dz, "
+                           "spread)" if c.KERNELS.rise else "return -1.0"), "return NAN"),
     _dispatcher("prim_rows", "fid, p, o, pts, pp, vs, sp, nb", "primitive", _ROWS, "return"),
     _dispatcher("combine", "vs, b, k, p, o, mode", "operator",
                 "K.combine(vs, b, k, p, o, mode)\nreturn", "return"),
@@ -193,8 +200,8 @@ def _build() -> dict[str, object]:
                  "to_canonical": kmath.to_canonical, "from_canonical": kmath.from_canonical,
                  **_kernels()}
     exec(compile(SOURCE, __file__, "exec"), namespace)  # noqa: S102 (our own generated code)
-    names = ("prim_s", "prim_uv", "prim_lipschitz", "prim_along", "prim_rows", "combine",
-             "op_bound", "combine_rows", "warp_map", "warp_rows", "paint")
+    names = ("prim_s", "prim_uv", "prim_lipschitz", "prim_along", "prim_rise", "prim_rows",
+             "combine", "op_bound", "combine_rows", "warp_map", "warp_rows", "paint")
     return {name: kernel(namespace[name],
                          inline="always" if name in INLINE_DISPATCHERS else "never")
             for name in names}
@@ -210,6 +217,9 @@ prim_uv = _D["prim_uv"]
 prim_lipschitz = _D["prim_lipschitz"]
 #: bound on |df/dt| along a frame segment, or -1: prim_along(op, p, o, ox.., dx.., length)
 prim_along = _D["prim_along"]
+#: bound on how fast a primitive's field rises in a frame box along a cone of directions, or -1:
+#: prim_rise(op, p, o, lo.., hi.., dx.., spread)
+prim_rise = _D["prim_rise"]
 #: a warp's query map over the batch's points in place: warp_rows(op, p, o, pts, pp, nb)
 warp_rows = _D["warp_rows"]
 #: field of a primitive over batch rows: prim_rows(op, fid, p, o, pts, pp, vs, sp, nb)

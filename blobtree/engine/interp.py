@@ -38,6 +38,7 @@ from ..nodes.kmath import (
     to_canonical,
 )
 from .dispatch import (
+    INCREASING,
     K_BOX,
     K_OPERATOR,
     K_PAINT,
@@ -56,19 +57,25 @@ from .dispatch import (
     paint,
     prim_along,
     prim_lipschitz,
+    prim_rise,
     prim_s,
     prim_uv,
     warp_map,
 )
 
 DEFAULT_GREY = 0.8
+#: Columns of the value stack: field, gradient, colour; in the bound passes, column RISE holds
+#: a row's bound on how fast its field rises along a cone of directions (:func:`_lipschitz`).
+COLUMNS = 8
+RISE = 7
 
 
 @kernel(nrt=True)
 def scratch(depth):
-    """Per-thread stacks for ``eval_point``: values (depth, 7): field, gradient, colour; and
-    points (depth, 30): the point to restore, the Jacobian to the outer frame, warp scratch."""
-    return np.empty((depth, 7)), np.empty((depth, 30))
+    """Per-thread stacks for ``eval_point`` and the bound passes: values (depth, COLUMNS):
+    field, gradient, colour (and a bound's rise); and points (depth, 30): the point to
+    restore, the Jacobian to the outer frame, warp scratch."""
+    return np.empty((depth, COLUMNS)), np.empty((depth, 30))
 
 
 @kernel
@@ -310,13 +317,21 @@ def _rule(op, p, o, vs, col, b, sp):
 
 @kernel
 def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox, oy, oz, dx,
-               dy, dz, length, vs):
+               dy, dz, length, spread, vs):
     """``lipschitz_box``; with ``ray``, primitives with a directional bound (outside warps) take
-    it along the segment o + t d, 0 <= t <= length inside the box.  Bounds in vs[:, 0], the
-    regions saved across warps in vs[pp, 1:7] (no field values: see :func:`_bounded`).  The
-    region also lies within the ball of radius ``rad`` about the box's centre (:func:`carry`:
-    a warp's region is a ball); leaving a warp, that is again the box's own."""
+    it along the segment o + t d, 0 <= t <= length inside the box.  With ``spread`` >= 0 also
+    a bound on how fast the field *rises* along every unit direction within ``spread`` of the
+    unit vector d (a cone of rays): a primitive outside warps with a ``rise`` kernel rises no
+    faster than it says (0 where the whole box moves away from it), and an ``INCREASING``
+    operator's rule over its children's rises bounds its own; any other operator's rise, and
+    any other primitive's, is its plain bound.
+    Returns (the bound, the rise: the bound when ``spread`` < 0).  Bounds in vs[:, 0], rises in
+    vs[:, RISE], the regions saved across warps in vs[pp, 1:7] (no field values: see
+    :func:`_bounded`).  The region also lies within the ball of radius ``rad`` about the box's
+    centre (:func:`carry`: a warp's region is a ball); leaving a warp, that is again the box's
+    own."""
     n = code.shape[0]
+    rising = spread >= 0.0
     sp = 0
     pp = 0
     rad = half_diagonal(lox, loy, loz, hix, hiy, hiz)
@@ -325,21 +340,32 @@ def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox,
         op = code[i, 0]
         kind = kind_of(op)
         if kind == K_PRIMITIVE:
-            if misses(boxes, i, lox, loy, loz, hix, hiy, hiz):
-                vs[sp, 0] = 0.0
-            else:
-                vs[sp, 0] = _prim_bound(op, params, code[i, 1], lips[i], ray, pp, lox, loy, loz,
-                                        hix, hiy, hiz, rad, ox, oy, oz, dx, dy, dz, length)
+            vs[sp, 0] = vs[sp, RISE] = 0.0
+            if not misses(boxes, i, lox, loy, loz, hix, hiy, hiz):
+                o = code[i, 1]
+                vs[sp, 0] = vs[sp, RISE] = _prim_bound(op, params, o, lips[i], ray, pp, lox,
+                                                       loy, loz, hix, hiy, hiz, rad, ox, oy, oz,
+                                                       dx, dy, dz, length)
+                if rising and pp == 0:
+                    rise = prim_rise(op, params, o, lox, loy, loz, hix, hiy, hiz, dx, dy, dz,
+                                     spread)
+                    if rise >= 0.0:
+                        vs[sp, RISE] = min(rise, vs[sp, 0])
             sp += 1
             i += 1
         elif kind == K_OPERATOR:
             b = sp - code[i, 3]
-            vs[b, 0] = _rule(op, params, code[i, 1], vs, 0, b, sp)
+            o = code[i, 1]
+            bound = _rule(op, params, o, vs, 0, b, sp)
+            rise = bound
+            if rising and INCREASING[op]:
+                rise = _rule(op, params, o, vs, RISE, b, sp)
+            vs[b, 0], vs[b, RISE] = bound, rise
             sp = b + 1
             i += 1
         elif kind == K_BOX or kind == K_PUSHPT or kind == K_WARP:
             if misses(boxes, i, lox, loy, loz, hix, hiy, hiz):
-                vs[sp, 0] = 0.0
+                vs[sp, 0] = vs[sp, RISE] = 0.0
                 sp += 1
                 i = code[i, 2]
                 continue
@@ -351,8 +377,9 @@ def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox,
                 lox, loy, loz, hix, hiy, hiz, rad = carry(kind, op, params, code[i, 1], lips[i],
                                                            lox, loy, loz, hix, hiy, hiz, rad, vs)
             i += 1
-        elif kind == K_POPPT:
+        elif kind == K_POPPT:  # (a warped subtree's rise is its bound)
             vs[sp - 1, 0] *= lips[i]
+            vs[sp - 1, RISE] = vs[sp - 1, 0]
             lox, loy, loz = vs[pp, 1], vs[pp, 2], vs[pp, 3]
             hix, hiy, hiz = vs[pp, 4], vs[pp, 5], vs[pp, 6]
             rad = half_diagonal(lox, loy, loz, hix, hiy, hiz)
@@ -361,10 +388,10 @@ def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox,
         elif kind == K_PAINT:
             i += 1
         else:  # K_ZERO
-            vs[sp, 0] = 0.0
+            vs[sp, 0] = vs[sp, RISE] = 0.0
             sp += 1
             i += 1
-    return vs[0, 0]
+    return vs[0, 0], vs[0, RISE]
 
 
 @kernel
@@ -458,7 +485,7 @@ def lipschitz_box(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, vs):
     the ball about the warped centre grown by the warp's stretch, and the cube around it:
     :func:`carry`) and the result scaled back."""
     return _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, False, 0.0, 0.0,
-                      0.0, 0.0, 0.0, 0.0, 0.0, vs)
+                      0.0, 0.0, 0.0, 0.0, 0.0, -1.0, vs)[0]
 
 
 @kernel
@@ -472,43 +499,47 @@ def bounds_use_values(code):
 
 @kernel(inline="always")
 def _bound_at(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, x, y, z, dx, dy,
-              dz, length, values, vs, ps):
-    """:func:`_bounded` with ``values``; else the field by ``eval_point``, the plain bound and
-    the distances those two give (cheaper for a program of blends)."""
+              dz, length, spread, values, vs, ps):
+    """:func:`_bounded` with ``values``; else the field by ``eval_point``, the plain bound (or,
+    with ``spread`` >= 0, its rise along the cone of directions within ``spread`` of d) and the
+    distances those give (cheaper for a program of blends): how far the field surely stays
+    below ISO (along the cone's directions, given its rise) and above it."""
     if values:
         return _bounded(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, x, y, z,
                         dx, dy, dz, length, vs, ps)
     f = eval_point(code, params, boxes, x, y, z, 0, vs, ps)
-    bound = _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, x, y, z,
-                       dx, dy, dz, length, vs)
-    below, above = gaps(f, bound)
-    return f, bound, below, above
+    bound, rise = _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, x, y,
+                             z, dx, dy, dz, length, spread, vs)
+    return f, rise, gaps(f, rise)[0], gaps(f, bound)[1]
 
 
 @kernel(inline="always")
-def bound_box_at(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, x, y, z, values, vs,
-                 ps):
+def bound_box_at(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, x, y, z, dx, dy, dz,
+                 spread, values, vs, ps):
     """(The field at (x, y, z), a point of the box [lo, hi]; a bound on |grad f| over the box;
     how far from the point within the box the field surely stays below ISO; and above it).
     With ``values`` (see :func:`bounds_use_values`), CSG operators drop the bounds of children
     that the field values at the point show cannot set the result anywhere in the box, and
-    prove longer distances (:func:`_bounded`)."""
+    prove longer distances (:func:`_bounded`).  Without, and with ``spread`` >= 0, the bound
+    is only on how fast the field rises along unit directions within ``spread`` of the unit
+    vector d (rays that only leave some primitives: :func:`_lipschitz`), and the distance
+    below ISO holds along those directions."""
     return _bound_at(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, False, x, y, z,
-                     0.0, 0.0, 0.0, 0.0, values, vs, ps)
+                     dx, dy, dz, 0.0, spread, values, vs, ps)
 
 
 @kernel(inline="always")
 def lipschitz_segment(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, length, values, vs,
                       ps):
-    """(The field at o; a bound on |df/dt| along the segment o + t d, 0 <= t <= length, d a unit
-    vector; how far along it the field surely stays below ISO; and above it):
-    :func:`bound_box_at` over the segment's box, except that primitives with a directional
-    bound (point primitives, outside warps) take it instead (never larger, and small where the
-    segment passes a primitive sideways, so grazing rays take long steps)."""
+    """(The field at o; a bound on how fast f rises along the segment o + t d, 0 <= t <= length,
+    d a unit vector; how far along it the field surely stays below ISO; and above it):
+    :func:`bound_box_at` over the segment's box with d's rise, except that primitives with a
+    directional bound (point primitives, outside warps) take it instead (never larger, and
+    small where the segment passes a primitive sideways, so grazing rays take long steps)."""
     bx, by, bz = ox + length * dx, oy + length * dy, oz + length * dz
     return _bound_at(code, params, boxes, lips, min(ox, bx), min(oy, by), min(oz, bz),
                      max(ox, bx), max(oy, by), max(oz, bz), True, ox, oy, oz, dx, dy, dz, length,
-                     values, vs, ps)
+                     0.0, values, vs, ps)
 
 
 @kernel(nrt=True, nogil=True)
@@ -535,7 +566,7 @@ def bound_range(start, stop, code, params, boxes, lips, lo, hi, at, depth, out):
     for m in range(start, stop):
         out[m, 0], out[m, 1], out[m, 2], out[m, 3] = bound_box_at(
             code, params, boxes, lips, lo[m, 0], lo[m, 1], lo[m, 2], hi[m, 0], hi[m, 1],
-            hi[m, 2], at[m, 0], at[m, 1], at[m, 2], True, vs, ps)
+            hi[m, 2], at[m, 0], at[m, 1], at[m, 2], 0.0, 0.0, 0.0, -1.0, True, vs, ps)
 
 
 @kernel(nrt=True, nogil=True)

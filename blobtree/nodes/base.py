@@ -106,12 +106,17 @@ class PrimitiveKernels:
     |grad f| over the local region within the box of centre c, half extents h and within the
     ball of centre c, radius r (``lip``: the global bound in the frame);
     optional ``along(p, o, ox, oy, oz, dx, dy, dz, length)``: a bound on |df/dt| along a frame
-    segment, or -1 for none.  ``o`` is the primitive's params offset."""
+    segment, or -1 for none; optional ``rise(p, o, lox, loy, loz, hix, hiy, hiz, dx, dy, dz,
+    spread)``: a bound on how fast the field can rise (df/dt, not |df/dt|) anywhere in the frame
+    box [lo, hi] along any unit direction within distance ``spread`` of the unit vector d, or -1
+    for none (0 where the rays all move away from the skeleton: they only leave the primitive).
+    ``o`` is the primitive's params offset."""
 
     s: Callable
     uv: Callable
     lipschitz: Callable | None = None
     along: Callable | None = None
+    rise: Callable | None = None
 
 
 #: Columns of the value stack that, in the engine's bound pass (field only: the colour's columns
@@ -580,8 +585,12 @@ class Operator(Node):
     ``ASSOCIATIVE`` (the compiler may regroup its children into a box hierarchy),
     ``IDEMPOTENT`` (a child repeated verbatim may be evaluated once), ``STACK`` (value-stack
     rows it needs beyond its children's, usually 0), ``SMOOTH`` (its gradient is continuous
-    where its children's are) and ``WANTS_VALUES`` (its ``LIPSCHITZ`` rule is far looser than
-    its value-aware ``bound``: a program holding it takes the value-aware pass throughout).
+    where its children's are), ``WANTS_VALUES`` (its ``LIPSCHITZ`` rule is far looser than
+    its value-aware ``bound``: a program holding it takes the value-aware pass throughout) and
+    ``INCREASING`` (its field never falls where a child's rises: no partial derivative is
+    negative, so its ``LIPSCHITZ`` rule over its children's bounds on how fast their fields
+    *rise* bounds how fast its own rises; a ray's bound then leaves out the primitives it moves
+    away from).
     An operator of one child must be that child (specialisation relies on it).
     """
 
@@ -595,6 +604,7 @@ class Operator(Node):
     STACK: ClassVar[int] = 0
     SMOOTH: ClassVar[bool] = False
     WANTS_VALUES: ClassVar[bool] = False
+    INCREASING: ClassVar[bool] = False
 
     def op_params(self) -> list[float]:
         """The operator's parameters in the program (empty by default)."""

@@ -69,6 +69,16 @@ def ellipsoid_lipschitz(p, o, lip, cx, cy, cz, hx, hy, hz, r):
                                 min(math.sqrt(far2), uc + reach))
 
 
+@kernel
+def ellipsoid_rise(p, o, lox, loy, loz, hix, hiy, hiz, dx, dy, dz, spread):
+    """How fast the field can rise along a cone of rays (``kmath.quadric_rise`` with
+    k_i = 1 / R_i^2)."""
+    c, r = o + CENTER, o + RADII
+    return kmath.quadric_rise(p, o, p[c], p[c + 1], p[c + 2], 1.0 / p[r] ** 2,
+                              1.0 / p[r + 1] ** 2, 1.0 / p[r + 2] ** 2, lox, loy, loz, hix, hiy,
+                              hiz, dx, dy, dz, spread)
+
+
 @register
 class Ellipsoid(Primitive):
     """Ellipsoid: a point skeleton at ``center`` whose field radius is ``radii`` along x, y, z,
@@ -83,7 +93,8 @@ class Ellipsoid(Primitive):
         FALLOFF_PARAM,
     )
     LAYOUT = LAYOUT
-    KERNELS = PrimitiveKernels(s=ellipsoid_s, uv=ellipsoid_uv, lipschitz=ellipsoid_lipschitz)
+    KERNELS = PrimitiveKernels(s=ellipsoid_s, uv=ellipsoid_uv, lipschitz=ellipsoid_lipschitz,
+                               rise=ellipsoid_rise)
 
     def _check(self):
         if np.any(self.radii <= 0.0):

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..fields import SLOPE_BY_ID, falloff, falloff_ds, falloff_peak
 from ..jit import kernel
-from .base import ABOVE, BELOW, BOUND, ISO, TIE
+from .base import ABOVE, BELOW, BOUND, FALLOFF, ISO, MAP_NORM, TIE
 
 fo = kernel(falloff)
 fo_ds = kernel(falloff_ds)
@@ -54,6 +54,45 @@ def map_box(p, o, lox, loy, loz, hix, hiy, hiz):
             abs(p[o]) * ex + abs(p[o + 1]) * ey + abs(p[o + 2]) * ez,
             abs(p[o + 4]) * ex + abs(p[o + 5]) * ey + abs(p[o + 6]) * ez,
             abs(p[o + 8]) * ex + abs(p[o + 9]) * ey + abs(p[o + 10]) * ez)
+
+
+@kernel
+def quadric_rise(p, o, cx, cy, cz, kx, ky, kz, lox, loy, loz, hix, hiy, hiz, dx, dy, dz,
+                 spread):
+    """How fast the field f(s) of s = sum_i k_i (q_i - c_i)^2 (a point's or an ellipsoid's) can
+    rise in the frame box [lo, hi] along unit directions d' within ``spread`` of the unit vector
+    d; q = M x + t is the local point of frame point x (the map at params[o:o + 12], its norm
+    at MAP_NORM).  df/dt = f'(s) ds/dt with f' <= 0, so only where s falls: -ds/dt / 2 =
+    -sum_i k_i (q_i - c_i) e_i - sum_i k_i (q_i - c_i) (e'_i - e_i), e = M d; the first term is
+    linear in x (its largest over the box is exact), the second at most max k |q - c| |M|
+    spread.  |f'| is largest at the box's least s (both falloffs' slopes fall with s).  0 where
+    the whole box moves away from the centre: rays there only leave the primitive."""
+    ex = p[o] * dx + p[o + 1] * dy + p[o + 2] * dz
+    ey = p[o + 4] * dx + p[o + 5] * dy + p[o + 6] * dz
+    ez = p[o + 8] * dx + p[o + 9] * dy + p[o + 10] * dz
+    ax, ay, az = kx * ex, ky * ey, kz * ez  # -ds/dt / 2 is -(M x + t - c) . a, plus the spread
+    bx, by, bz = 0.5 * (lox + hix), 0.5 * (loy + hiy), 0.5 * (loz + hiz)
+    hx, hy, hz = 0.5 * (hix - lox), 0.5 * (hiy - loy), 0.5 * (hiz - loz)
+    qx, qy, qz = map_point(p, o, bx, by, bz)
+    qx, qy, qz = qx - cx, qy - cy, qz - cz
+    fall = -(qx * ax + qy * ay + qz * az)
+    for j in range(3):  # plus the box's reach along the linear term's gradient M^T a
+        fall += abs(p[o + j] * ax + p[o + 4 + j] * ay + p[o + 8 + j] * az) * (hx, hy, hz)[j]
+    if spread > 0.0:
+        norm = p[o + MAP_NORM]
+        far = math.sqrt(qx * qx + qy * qy + qz * qz) + norm * math.sqrt(hx * hx + hy * hy
+                                                                         + hz * hz)
+        fall += max(kx, ky, kz) * far * norm * spread
+    if fall <= 0.0:
+        return 0.0
+    least = 0.0  # the least s over the box around the region's image
+    lx, ly, lz, ux, uy, uz = map_box(p, o, lox, loy, loz, hix, hiy, hiz)
+    for off, half, k in ((lx - cx, ux, kx), (ly - cy, uy, ky), (lz - cz, uz, kz)):
+        gap = max(abs(off) - half, 0.0)
+        least += k * gap * gap
+    if least >= 1.0:
+        return 0.0
+    return 2.0 * fall * abs(fo_ds(int(p[o + FALLOFF]), least))
 
 
 #: atan t = t + t^3 h(t^2) for |t| <= tan(pi/8): h's coefficients, lowest power first (the

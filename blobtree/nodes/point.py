@@ -94,6 +94,16 @@ def point_along(p, o, ox, oy, oz, dx, dy, dz, length):
     return 2.0 * e / r * u * abs(kmath.fo_ds(fid, min(u * u + cc, 1.0)))
 
 
+@kernel
+def point_rise(p, o, lox, loy, loz, hix, hiy, hiz, dx, dy, dz, spread):
+    """How fast the field can rise along a cone of rays (``kmath.quadric_rise``, s = |q - c|^2
+    / R^2): only as fast as they approach the centre."""
+    c = o + CENTER
+    k = 1.0 / (p[o + RADIUS] * p[o + RADIUS])
+    return kmath.quadric_rise(p, o, p[c], p[c + 1], p[c + 2], k, k, k, lox, loy, loz, hix, hiy,
+                              hiz, dx, dy, dz, spread)
+
+
 @register
 class Point(Primitive):
     """Point skeleton; a lone one has its surface at radius R/2 (soft object falloff)."""
@@ -106,7 +116,7 @@ class Point(Primitive):
     )
     LAYOUT = LAYOUT
     KERNELS = PrimitiveKernels(s=point_s, uv=point_uv, lipschitz=point_lipschitz,
-                               along=point_along)
+                               along=point_along, rise=point_rise)
 
     def pack(self):
         return LAYOUT.pack(center=self.center)

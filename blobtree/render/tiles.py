@@ -16,6 +16,7 @@ import numpy as np
 
 from ..checks import Integer, Number
 from ..engine.batch import SUB as BATCH
+from ..engine.interp import COLUMNS
 from ..engine.specialize import specialize, specialize_work
 from ..jit import kernel
 from .camera import Camera, as_color
@@ -178,7 +179,7 @@ def trace_rect(prog, cam: np.ndarray, lights: np.ndarray, settings: RenderSettin
     # cones always cover the whole grid cell: a pixel's result never depends on the tiling.
     gx0, gy0 = x0 // BLOCK, y0 // BLOCK
     nbx, nby = (x1 - 1) // BLOCK - gx0 + 1, (y1 - 1) // BLOCK - gy0 + 1
-    scratch = (np.empty((prog.depth, 7)), np.empty((prog.depth, 30)))
+    scratch = (np.empty((prog.depth, COLUMNS)), np.empty((prog.depth, 30)))
     work = specialize_work(code)  # (specialising is never nested: one serves every call)
     _render_blocks(code, params, boxes, lips, cam, lights, lo, hi, s.width, s.height, s.samples,
                    s.shadows, bg, bg_bytes, s.packed_look(diag),

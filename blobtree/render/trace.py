@@ -202,6 +202,25 @@ def _still_going(act, a, out, t, t_end):
     return b
 
 
+@kernel(inline="always")
+def _cone(D, act, m):
+    """The unit axis a of the directions D[k], k in act[:m], and the largest |D[k] - a| (-1 if
+    they cancel out: no cone)."""
+    ax = ay = az = 0.0
+    for j in range(m):
+        k = act[j]
+        ax, ay, az = ax + D[k, 0], ay + D[k, 1], az + D[k, 2]
+    norm = np.sqrt(ax * ax + ay * ay + az * az)
+    if not norm > 0.0:
+        return 1.0, 0.0, 0.0, -1.0
+    ax, ay, az = ax / norm, ay / norm, az / norm
+    spread = 0.0
+    for j in range(m):
+        k = act[j]
+        spread = max(spread, (D[k, 0] - ax) ** 2 + (D[k, 1] - ay) ** 2 + (D[k, 2] - az) ** 2)
+    return ax, ay, az, np.sqrt(spread)
+
+
 @kernel
 def trace_packet(code, params, boxes, lips, O, D, n, t, t_end, eps, eps_rel, delta0, out, pk,
                  ids, pts, vs, tmp, vstack, pstack):
@@ -210,12 +229,14 @@ def trace_packet(code, params, boxes, lips, O, D, n, t, t_end, eps, eps_rel, del
     stopped (t_end[k] if it got there); the field's lowest value, largest rise and where it peaked
     go on in ``pk`` (:data:`LOW` ...).  Each ray steps as :func:`trace` does (never less than eps[k]
     + eps_rel t), but one bound serves them all: over the box around every ray's candidate segment
-    (value-aware at one of their points where the root is CSG), and each step evaluates the new
-    points of all the rays in one batch (``batch.eval_rows``: SIMD over rays).  A segment ends for
+    (value-aware at one of their points where the root is CSG; else a bound on how fast the
+    field rises along the cone of their directions, which leaves out the primitives they all
+    move away from), and each step evaluates the new points of all the rays in one batch
+    (``batch.eval_rows``: SIMD over rays).  A segment ends for
     all once every ray has crossed it (the next is ``SEGMENT_GROWTH`` times the longest crossing),
     or once some ray's steps are short next to what is left of it (the next is ``GROWTH`` times the
-    shortest step).  Where the bound is 0 (no support meets the box) the field is the same all
-    over it, so the rays cross their segments without evaluating it.  Scratch: pk (8, n)
+    shortest step).  Where the bound is 0 (the field cannot rise in the box along the rays)
+    the rays cross their segments in one step.  Scratch: pk (8, n)
     floats, ids (2, n) ints; pts, vs, tmp as ``eval_rows`` takes them (n at most their
     columns)."""
     values = interp.bounds_use_values(code)
@@ -238,6 +259,7 @@ def trace_packet(code, params, boxes, lips, O, D, n, t, t_end, eps, eps_rel, del
         if t[k] < t_end[k]:
             act[a] = k
             a += 1
+    ax, ay, az, spread = _cone(D, act, a)
     delta = delta0
     while a > 0:
         lox = loy = loz = np.inf
@@ -254,20 +276,16 @@ def trace_packet(code, params, boxes, lips, O, D, n, t, t_end, eps, eps_rel, del
         _, lam, _, _ = interp.bound_box_at(code, params, boxes, lips, lox, loy, loz, hix, hiy,
                                            hiz, O[k, 0] + t[k] * D[k, 0],
                                            O[k, 1] + t[k] * D[k, 1], O[k, 2] + t[k] * D[k, 2],
-                                           values, vstack, pstack)
-        if lam == 0.0:  # no support meets the box: the field is the same all over it
-            for j in range(a):
-                k = act[j]
-                pk[LAST, k] = pk[TE, k] - t[k]
-                t[k] = pk[TE, k]
-            a = _still_going(act, a, out, t, t_end)
+                                           ax, ay, az, spread, values, vstack, pstack)
         creep = False
-        while not creep and lam > 0.0:  # lam bounds |df/dt| on every segment: step each ray
-            mv = 0  # on inside its own
+        while not creep:  # lam bounds the field's rise on every segment: step each ray on
+            mv = 0  # inside its own (across it where the field cannot rise there)
             for j in range(a):
                 k = act[j]
                 if t[k] < pk[TE, k]:
-                    step = min(pk[TE, k] - t[k], -pk[F, k] / lam)
+                    step = pk[TE, k] - t[k]
+                    if lam > 0.0:
+                        step = min(step, -pk[F, k] / lam)
                     pk[TN, k] = min(t[k] + max(step, eps[k] + eps_rel * t[k]), pk[TE, k])
                     mov[mv] = k
                     mv += 1
@@ -324,7 +342,8 @@ def march_cone(code, params, boxes, lips, ex, ey, ez, ax, ay, az, tan_a, t, t1, 
         hix, hiy, hiz = max(px, qx) + r, max(py, qy) + r, max(pz, qz) + r
         if values:
             _, lam, below, _ = interp.bound_box_at(code, params, boxes, lips, lox, loy, loz, hix,
-                                                   hiy, hiz, px, py, pz, True, vstack, pstack)
+                                                   hiy, hiz, px, py, pz, 0.0, 0.0, 0.0, -1.0,
+                                                   True, vstack, pstack)
         else:  # the plain bound, and the field only where it is needed (the bound is not 0)
             lam = interp.lipschitz_box(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz,
                                        vstack)
