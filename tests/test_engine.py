@@ -327,8 +327,8 @@ def test_local_lipschitz_bounds_hold_on_random_trees(tree, seed, frac):
 @given(trees(), st.integers(0, 2**31), st.floats(0.02, 1.0))
 def test_segment_lipschitz_bounds_hold_on_random_trees(tree, seed, frac):
     """The bound along a segment (directional for point primitives) bounds how fast the field
-    rises along it, grad f . d (the value-aware pass: |grad f . d|), and the field stays below
-    0.5 as far along it as the bound says."""
+    rises along it, grad f . d, and the field stays on its side of 0.5 as far along it as the
+    distances say."""
     from blobtree.engine import interp as K
 
     prog = tree.program()
@@ -349,8 +349,7 @@ def test_segment_lipschitz_bounds_hold_on_random_trees(tree, seed, frac):
             f, bound, below, above = K.lipschitz_segment(code, params, boxes, lips, *o, *d,
                                                          length, values, vs, ps)
             np.testing.assert_allclose(f, fq[0], rtol=1e-9, atol=1e-12)
-            slope = np.abs(gq @ d) if values else gq @ d
-            assert slope.max() <= bound * (1 + 1e-9) + 1e-12
+            assert (gq @ d).max() <= bound * (1 + 1e-9) + 1e-12
             assert np.all(fq[ts < below * (1 - 1e-9)] <= 0.5 + 1e-12)
             assert np.all(fq[ts < above * (1 - 1e-9)] >= 0.5 - 1e-12)
 
@@ -365,10 +364,10 @@ def _cone_directions(rng, axis, m, width):
 
 @given(trees(), st.integers(0, 2**31), st.floats(0.02, 0.5), st.sampled_from([0.0, 0.05, 0.5]))
 def test_rise_bounds_hold_along_cones_on_random_trees(tree, seed, frac, width):
-    """Over boxes, the plain pass's bound on how fast the field rises along a cone of unit
-    directions (``bound_box_at`` with a spread, the packet tracer's) is at least grad f . d at
-    points of the box for directions d of the cone, never above the plain bound, and the field
-    stays below 0.5 along those directions as far as it says."""
+    """Over boxes, both passes' bounds on how fast the field rises along a cone of unit
+    directions (``bound_box_at`` with a spread, the packet tracer's) are at least grad f . d at
+    points of the box for directions d of the cone, never above the pass's bound without the
+    cone, and the field stays below 0.5 along those directions as far as they say."""
     from blobtree.engine import interp as K
 
     prog = tree.program()
@@ -385,71 +384,83 @@ def test_rise_bounds_hold_along_cones_on_random_trees(tree, seed, frac, width):
         D, spread = _cone_directions(rng, axis, 300, width)
         x = rng.uniform(corner, corner + size)
         Q = rng.uniform(corner, corner + size, (300, 3))
-        box = (*corner, *(corner + size))
-        plain = K.lipschitz_box(code, params, boxes, lips, *box, vs)
-        f, rise, below, _ = K.bound_box_at(code, params, boxes, lips, *box, *x, *axis, spread,
-                                           False, vs, ps)
-        assert rise <= plain * (1 + 1e-12)
         g = tree.reference(Q)[1]
-        assert max(np.einsum("ij,ij->i", g, D).max(), (g @ axis).max()) <= rise * (1 + 1e-9) \
-            + 1e-12
-        s = rng.uniform(0.0, 1.0, 300) * min(below, float(np.linalg.norm(size)))
-        P = x + s[:, None] * D
-        inside = np.all((P >= corner) & (P <= corner + size), axis=1) & (s < below)
-        assert np.all(tree.reference(P[inside])[0] <= 0.5 + 1e-12)
+        slope = max(np.einsum("ij,ij->i", g, D).max(), (g @ axis).max())
+        box = (*corner, *(corner + size))
+        for values in (True, False):
+            plain = K.bound_box_at(code, params, boxes, lips, *box, *x, *axis, -1.0, values, vs,
+                                   ps)[1]
+            f, rise, below, _ = K.bound_box_at(code, params, boxes, lips, *box, *x, *axis,
+                                               spread, values, vs, ps)
+            assert slope <= rise * (1 + 1e-9) + 1e-12 and rise <= plain
+            s = rng.uniform(0.0, 1.0, 300) * min(below, float(np.linalg.norm(size)))
+            P = x + s[:, None] * D
+            inside = np.all((P >= corner) & (P <= corner + size), axis=1) & (s < below)
+            assert np.all(tree.reference(P[inside])[0] <= 0.5 + 1e-12)
+
+
+def _rise(tree, box, d, values, spread=0.0):
+    """Both bound passes' rise over the box along unit direction d (and the cone about it)."""
+    from blobtree.engine import interp as K
+
+    prog = tree.program()
+    code, params, boxes, lips = prog.arrays
+    vs, ps = K.scratch(prog.depth)
+    centre = 0.5 * (np.array(box[:3]) + np.array(box[3:]))
+    return K.bound_box_at(code, params, boxes, lips, *box, *centre, *d, spread, values, vs,
+                          ps)[1]
 
 
 def test_rays_leaving_a_blend_of_points_are_bounded_by_nothing_it_falls_from():
-    """Rays that leave every point of a blend have no rise bound (the tracer crosses their
-    segments in one step) though the field's slope there is not 0, and rays that pass them
-    sideways a small one; a difference whose carving they leave rises, and its bound says so."""
-    from blobtree.engine import interp as K
-
+    """Rays that leave every point of a blend have no rise bound in the plain pass (the tracer
+    crosses their segments in one step) though the field's slope there is not 0, and rays that
+    pass them sideways a small one.  A difference rises where its first child does or its
+    carving falls: leaving the carving it rises, and its bound says so; away from the carving
+    it rises as its first child does.  The value-aware pass keeps its plain bound."""
     blob = bt.Blend(bt.Point(radius=1.0), bt.Point(radius=1.0, center=(0.6, 0.0, 0.0)))
-    carved = bt.Difference(bt.Point(radius=2.5, center=(0.5, 0.0, 0.0)), blob)
-    box = (1.0, -0.1, -0.1, 1.2, 0.1, 0.1)  # beyond both centres along +x, inside the supports
-    for tree, rising in ((blob, False), (carved, True)):
-        prog = tree.program()
-        code, params, boxes, lips = prog.arrays
-        vs, ps = K.scratch(prog.depth)
-        plain = K.lipschitz_box(code, params, boxes, lips, *box, vs)
-        rise = K.bound_box_at(code, params, boxes, lips, *box, 1.1, 0.0, 0.0, 1.0, 0.0, 0.0,
-                              0.05, False, vs, ps)[1]
+    carved = bt.Difference(bt.Point(radius=2.5, center=(2.0, 0.0, 0.0)), blob)
+    near = (1.0, -0.1, -0.1, 1.2, 0.1, 0.1)  # beyond the blob's centres along +x
+    far = (2.5, -0.1, -0.1, 2.7, 0.1, 0.1)  # beyond the blob's support and carved's centre
+    for tree, box in ((blob, near), (carved, near), (carved, far)):
         Q = np.random.default_rng(0).uniform(box[:3], box[3:], (500, 3))
-        slope = tree.reference(Q)[1][:, 0]
-        assert plain > 0.0 and np.abs(slope).max() > 0.1
-        assert rise >= slope.max() * (1 + 1e-9) - 1e-12
-        assert (rise > 0.1) == rising
-        # along -x the rays move toward the centres: the blend's field rises, the carving's falls
-        toward = K.bound_box_at(code, params, boxes, lips, *box, 1.1, 0.0, 0.0, -1.0, 0.0, 0.0,
-                                0.0, False, vs, ps)[1]
-        assert toward >= (-slope).max() * (1 + 1e-9)
-        assert ((-slope).max() > 0.1) != rising
-        if not rising:  # sideways (along y) the box nears the centres slowly: a smaller bound
-            side = K.bound_box_at(code, params, boxes, lips, *box, 1.1, 0.0, 0.0, 0.0, 1.0, 0.0,
-                                  0.0, False, vs, ps)[1]
-            assert tree.reference(Q)[1][:, 1].max() <= side < 0.5 * plain
+        g = tree.reference(Q)[1]
+        for values in (True, False):
+            plain = _rise(tree, box, (1.0, 0.0, 0.0), values, -1.0)
+            out = _rise(tree, box, (1.0, 0.0, 0.0), values, 0.05)
+            back = _rise(tree, box, (-1.0, 0.0, 0.0), values)
+            assert np.abs(g[:, 0]).max() > 0.1 and plain > 0.1
+            assert g[:, 0].max() <= out * (1 + 1e-9) + 1e-12 and out <= plain
+            assert (-g[:, 0]).max() <= back * (1 + 1e-9) + 1e-12 and back <= plain
+            if values:
+                assert out == back == plain
+            elif tree is blob:  # leaving: 0; moving in: as fast as the field rises
+                assert out == 0.0 and back >= (-g[:, 0]).max() > 0.1
+                side = _rise(tree, box, (0.0, 1.0, 0.0), values)
+                assert g[:, 1].max() <= side < 0.5 * plain
+            else:  # leaving the carving it rises; away from it, it leaves (2, 0, 0): 0
+                assert out > 0.1 if box == near else out == 0.0
 
 
 @given(st.sampled_from(["soft_object", "cubic"]), st.floats(0.3, 3.0), st.integers(0, 2**31))
 def test_point_directional_bound_is_the_largest_slope(falloff, radius, seed):
     """For a lone (scaled, rotated) point primitive the segment bound is |df/dt|'s maximum along
-    the segment itself: at least every sampled slope, and within 1% of the largest (the
-    value-aware pass); the plain pass bounds how fast it rises."""
+    the segment itself: at least every sampled slope, and within 1% of the largest; the rise
+    bound (what the tracer steps by) is at least every sampled df/dt and at most that."""
     from blobtree.engine import interp as K
 
     tree = bt.Point(radius=radius, falloff=falloff).scale(1.0, 0.7, 1.3).rotate((1, 2, 3), 40)
     prog = tree.program()
     rng = np.random.default_rng(seed)
     code, params, boxes, lips = prog.arrays
-    vs, ps = K.scratch(prog.depth)
+    vs, _ = K.scratch(prog.depth)
     for _ in range(20):
         o = rng.uniform(-1.5, 1.5, 3) * radius
         d = rng.normal(size=3)
         d /= np.linalg.norm(d)
         length = rng.uniform(0.05, 3.0) * radius
-        bound = K.lipschitz_segment(code, params, boxes, lips, *o, *d, length, True, vs, ps)[1]
-        rise = K.lipschitz_segment(code, params, boxes, lips, *o, *d, length, False, vs, ps)[1]
+        e = o + length * d
+        bound, rise = K._lipschitz(code, params, boxes, lips, *np.minimum(o, e),
+                                   *np.maximum(o, e), True, *o, *d, length, 0.0, vs)
         Q = o + np.linspace(0.0, length, 4001)[:, None] * d
         slopes = tree.reference(Q)[1] @ d
         slope = np.abs(slopes).max()

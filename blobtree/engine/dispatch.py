@@ -73,9 +73,10 @@ LIPSCHITZ = _table("LIPSCHITZ", LIPSCHITZ_RULES, "sum", "sum")
 #: Whether an opcode's type has a value-aware ``bound`` kernel (a CSG operator's).
 VALUE_BOUND = np.array([c.KIND == "operator" and c.KERNELS.bound is not None for c in TYPES]
                        + [False] * 4)
-#: Whether an opcode's type is an ``INCREASING`` operator (its rule bounds how fast it rises
-#: from how fast its children rise).
-INCREASING = np.array([getattr(c, "INCREASING", False) for c in TYPES] + [False] * 4)
+#: How an operator's field moves with its first / each later child (``Operator.MONOTONE``).
+MONOTONE_FIRST, MONOTONE_REST = (
+    np.array([getattr(c, "MONOTONE", (0, 0))[j] for c in TYPES] + [0] * 4, dtype=np.int64)
+    for j in (0, 1))
 #: Value-stack rows an operator needs beyond its children.
 STACK = np.array([getattr(c, "STACK", 0) for c in TYPES] + [0] * 4, dtype=np.int64)
 

@@ -38,7 +38,6 @@ from ..nodes.kmath import (
     to_canonical,
 )
 from .dispatch import (
-    INCREASING,
     K_BOX,
     K_OPERATOR,
     K_PAINT,
@@ -48,6 +47,8 @@ from .dispatch import (
     K_WARP,
     LIPSCHITZ,
     MAX,
+    MONOTONE_FIRST,
+    MONOTONE_REST,
     NORM,
     SCALED,
     VALUE_BOUND,
@@ -64,10 +65,11 @@ from .dispatch import (
 )
 
 DEFAULT_GREY = 0.8
-#: Columns of the value stack: field, gradient, colour; in the bound passes, column RISE holds
-#: a row's bound on how fast its field rises along a cone of directions (:func:`_lipschitz`).
-COLUMNS = 8
-RISE = 7
+#: Columns of the value stack: field, gradient, colour; in the bound passes, columns RISE and
+#: FALL hold a row's bounds on how fast its field rises and falls along a cone of directions
+#: (:func:`_lipschitz`).
+COLUMNS = 9
+RISE, FALL = 7, 8
 
 
 @kernel(nrt=True)
@@ -315,21 +317,52 @@ def _rule(op, p, o, vs, col, b, sp):
     return acc * p[o] if LIPSCHITZ[op] == SCALED else acc
 
 
+@kernel(inline="always")
+def _prim_moves(op, p, o, pp, lox, loy, loz, hix, hiy, hiz, dx, dy, dz, spread, bound, vs, sp):
+    """How fast primitive op's field can rise and fall over the box along the cone (unit
+    directions within ``spread`` of d), into vs[sp, RISE] and vs[sp, FALL]: its ``rise``
+    kernel outside warps, at most its plain bound; the fall is the plain bound (only a
+    difference's carving needs it, and its ``rise`` along -d would cost every primitive a
+    second call)."""
+    vs[sp, RISE] = vs[sp, FALL] = bound
+    if pp == 0:
+        rise = prim_rise(op, p, o, lox, loy, loz, hix, hiy, hiz, dx, dy, dz, spread)
+        if rise >= 0.0:
+            vs[sp, RISE] = min(rise, bound)
+
+
+@kernel(inline="always")
+def _op_moves(op, p, o, vs, b, sp, bound):
+    """An operator's rise and fall along the cone, into vs[b, RISE] and vs[b, FALL]: its rule
+    over what each child's moves do to it (``MONOTONE``: a child it grows with gives its rise
+    to the rise and its fall to the fall, one it shrinks with the other way round, one it moves
+    either way with its plain bound vs[j, 0] to both), at most its own ``bound``."""
+    for j in range(b, sp):
+        sign = MONOTONE_FIRST[op] if j == b else MONOTONE_REST[op]
+        if sign == 0:
+            vs[j, RISE] = vs[j, FALL] = vs[j, 0]
+        elif sign < 0:
+            vs[j, RISE], vs[j, FALL] = vs[j, FALL], vs[j, RISE]
+    rise = min(_rule(op, p, o, vs, RISE, b, sp), bound)
+    fall = min(_rule(op, p, o, vs, FALL, b, sp), bound)
+    vs[b, RISE], vs[b, FALL] = rise, fall
+
+
 @kernel
 def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox, oy, oz, dx,
                dy, dz, length, spread, vs):
     """``lipschitz_box``; with ``ray``, primitives with a directional bound (outside warps) take
     it along the segment o + t d, 0 <= t <= length inside the box.  With ``spread`` >= 0 also
     a bound on how fast the field *rises* along every unit direction within ``spread`` of the
-    unit vector d (a cone of rays): a primitive outside warps with a ``rise`` kernel rises no
-    faster than it says (0 where the whole box moves away from it), and an ``INCREASING``
-    operator's rule over its children's rises bounds its own; any other operator's rise, and
-    any other primitive's, is its plain bound.
-    Returns (the bound, the rise: the bound when ``spread`` < 0).  Bounds in vs[:, 0], rises in
-    vs[:, RISE], the regions saved across warps in vs[pp, 1:7] (no field values: see
-    :func:`_bounded`).  The region also lies within the ball of radius ``rad`` about the box's
-    centre (:func:`carry`: a warp's region is a ball); leaving a warp, that is again the box's
-    own."""
+    unit vector d (a cone of rays): each row carries how fast it can rise and fall there (a
+    primitive outside warps rises as its ``rise`` kernel says, 0 where the whole box moves
+    away from it: :func:`_prim_moves`; an operator by :func:`_op_moves`; anything else as fast
+    as its plain bound).  Returns
+    (the bound, the rise: the bound when ``spread`` < 0).  Bounds in vs[:, 0], rises and falls
+    in vs[:, RISE] and vs[:, FALL], the regions saved across warps in vs[pp, 1:7] (no field
+    values: see :func:`_bounded`).  The region also lies within the ball of radius ``rad``
+    about the box's centre (:func:`carry`: a warp's region is a ball); leaving a warp, that is
+    again the box's own."""
     n = code.shape[0]
     rising = spread >= 0.0
     sp = 0
@@ -340,32 +373,28 @@ def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox,
         op = code[i, 0]
         kind = kind_of(op)
         if kind == K_PRIMITIVE:
-            vs[sp, 0] = vs[sp, RISE] = 0.0
+            vs[sp, 0] = vs[sp, RISE] = vs[sp, FALL] = 0.0
             if not misses(boxes, i, lox, loy, loz, hix, hiy, hiz):
                 o = code[i, 1]
-                vs[sp, 0] = vs[sp, RISE] = _prim_bound(op, params, o, lips[i], ray, pp, lox,
-                                                       loy, loz, hix, hiy, hiz, rad, ox, oy, oz,
-                                                       dx, dy, dz, length)
-                if rising and pp == 0:
-                    rise = prim_rise(op, params, o, lox, loy, loz, hix, hiy, hiz, dx, dy, dz,
-                                     spread)
-                    if rise >= 0.0:
-                        vs[sp, RISE] = min(rise, vs[sp, 0])
+                vs[sp, 0] = _prim_bound(op, params, o, lips[i], ray, pp, lox, loy, loz, hix, hiy,
+                                        hiz, rad, ox, oy, oz, dx, dy, dz, length)
+                if rising:
+                    _prim_moves(op, params, o, pp, lox, loy, loz, hix, hiy, hiz, dx, dy, dz,
+                                spread, vs[sp, 0], vs, sp)
             sp += 1
             i += 1
         elif kind == K_OPERATOR:
             b = sp - code[i, 3]
             o = code[i, 1]
             bound = _rule(op, params, o, vs, 0, b, sp)
-            rise = bound
-            if rising and INCREASING[op]:
-                rise = _rule(op, params, o, vs, RISE, b, sp)
-            vs[b, 0], vs[b, RISE] = bound, rise
+            if rising:
+                _op_moves(op, params, o, vs, b, sp, bound)
+            vs[b, 0] = bound
             sp = b + 1
             i += 1
         elif kind == K_BOX or kind == K_PUSHPT or kind == K_WARP:
             if misses(boxes, i, lox, loy, loz, hix, hiy, hiz):
-                vs[sp, 0] = vs[sp, RISE] = 0.0
+                vs[sp, 0] = vs[sp, RISE] = vs[sp, FALL] = 0.0
                 sp += 1
                 i = code[i, 2]
                 continue
@@ -377,9 +406,9 @@ def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox,
                 lox, loy, loz, hix, hiy, hiz, rad = carry(kind, op, params, code[i, 1], lips[i],
                                                            lox, loy, loz, hix, hiy, hiz, rad, vs)
             i += 1
-        elif kind == K_POPPT:  # (a warped subtree's rise is its bound)
+        elif kind == K_POPPT:  # (a warped subtree moves as fast as its bound)
             vs[sp - 1, 0] *= lips[i]
-            vs[sp - 1, RISE] = vs[sp - 1, 0]
+            vs[sp - 1, RISE] = vs[sp - 1, FALL] = vs[sp - 1, 0]
             lox, loy, loz = vs[pp, 1], vs[pp, 2], vs[pp, 3]
             hix, hiy, hiz = vs[pp, 4], vs[pp, 5], vs[pp, 6]
             rad = half_diagonal(lox, loy, loz, hix, hiy, hiz)
@@ -388,10 +417,10 @@ def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox,
         elif kind == K_PAINT:
             i += 1
         else:  # K_ZERO
-            vs[sp, 0] = vs[sp, RISE] = 0.0
+            vs[sp, 0] = vs[sp, RISE] = vs[sp, FALL] = 0.0
             sp += 1
             i += 1
-    return vs[0, 0], vs[0, RISE]
+    return vs[0, 0], (vs[0, RISE] if rising else vs[0, 0])
 
 
 @kernel
@@ -402,7 +431,9 @@ def _bounded(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox, o
     out children that cannot set its field anywhere in the region (a CSG operator's loser), and
     to say how far its field surely stays below and above ISO.  Returns (the field at o; the
     bound; how far from o the field surely stays below ISO, and above it).  Costlier than
-    :func:`_lipschitz` where no such operator is (a program of blends).
+    :func:`_lipschitz` where no such operator is (a program of blends).  It bounds no rise
+    along rays (:func:`_lipschitz`): on the Murex, the rises cost the ray tracer more than
+    they saved (1.01-1.08x its time).
 
     Stacks: fields in vs[:, 0], bounds in vs[:, BOUND], the distances an operator proved in
     vs[:, BELOW] and vs[:, ABOVE] (``kmath.safe_distances`` adds those of the value and bound);
@@ -500,17 +531,19 @@ def bounds_use_values(code):
 @kernel(inline="always")
 def _bound_at(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, x, y, z, dx, dy,
               dz, length, spread, values, vs, ps):
-    """:func:`_bounded` with ``values``; else the field by ``eval_point``, the plain bound (or,
-    with ``spread`` >= 0, its rise along the cone of directions within ``spread`` of d) and the
-    distances those give (cheaper for a program of blends): how far the field surely stays
-    below ISO (along the cone's directions, given its rise) and above it."""
+    """:func:`_bounded` with ``values``; else the field by ``eval_point``, the plain bound and
+    the distances those two give (cheaper for a program of blends); with ``spread`` >= 0 the
+    bound is the rise along the cone of directions within ``spread`` of d (the distances stay
+    the plain bound's, which hold in every direction: infinite below ISO where the field is
+    the same all over the box)."""
     if values:
         return _bounded(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, x, y, z,
                         dx, dy, dz, length, vs, ps)
     f = eval_point(code, params, boxes, x, y, z, 0, vs, ps)
     bound, rise = _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, x, y,
                              z, dx, dy, dz, length, spread, vs)
-    return f, rise, gaps(f, rise)[0], gaps(f, bound)[1]
+    below, above = gaps(f, bound)
+    return f, rise, below, above
 
 
 @kernel(inline="always")
@@ -522,8 +555,8 @@ def bound_box_at(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, x, y, 
     that the field values at the point show cannot set the result anywhere in the box, and
     prove longer distances (:func:`_bounded`).  Without, and with ``spread`` >= 0, the bound
     is only on how fast the field rises along unit directions within ``spread`` of the unit
-    vector d (rays that only leave some primitives: :func:`_lipschitz`), and the distance
-    below ISO holds along those directions."""
+    vector d (rays that leave some primitives, or pass them sideways: :func:`_lipschitz`); the
+    distances are still those of the bound without the cone."""
     return _bound_at(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, False, x, y, z,
                      dx, dy, dz, 0.0, spread, values, vs, ps)
 

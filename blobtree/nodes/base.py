@@ -587,10 +587,10 @@ class Operator(Node):
     rows it needs beyond its children's, usually 0), ``SMOOTH`` (its gradient is continuous
     where its children's are), ``WANTS_VALUES`` (its ``LIPSCHITZ`` rule is far looser than
     its value-aware ``bound``: a program holding it takes the value-aware pass throughout) and
-    ``INCREASING`` (its field never falls where a child's rises: no partial derivative is
-    negative, so its ``LIPSCHITZ`` rule over its children's bounds on how fast their fields
-    *rise* bounds how fast its own rises; a ray's bound then leaves out the primitives it moves
-    away from).
+    ``MONOTONE`` (how its field moves with its first child and with each later one: +1, it
+    never falls where that child's rises; -1, it never rises; 0, either way.  Its ``LIPSCHITZ``
+    rule then bounds how fast its field *rises* along a ray from how fast its children's rise or
+    fall, and a ray's bound leaves out the primitives it moves away from).
     An operator of one child must be that child (specialisation relies on it).
     """
 
@@ -604,7 +604,7 @@ class Operator(Node):
     STACK: ClassVar[int] = 0
     SMOOTH: ClassVar[bool] = False
     WANTS_VALUES: ClassVar[bool] = False
-    INCREASING: ClassVar[bool] = False
+    MONOTONE: ClassVar[tuple[int, int]] = (0, 0)
 
     def op_params(self) -> list[float]:
         """The operator's parameters in the program (empty by default)."""

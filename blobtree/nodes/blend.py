@@ -40,7 +40,7 @@ class Blend(Operator):
 
     TYPE = "blend"
     ASSOCIATIVE = True
-    INCREASING = True  # a sum
+    MONOTONE = (1, 1)  # a sum
     SMOOTH = True
     KERNELS = OperatorKernels(combine=blend_combine, rows=blend_rows)
 

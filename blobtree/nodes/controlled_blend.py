@@ -217,7 +217,7 @@ class ControlledBlend(Operator):
               Param("n", Number(lo=1.0, hi=LARGEST_N, sample=(1.0, 8.0)), 1.0,
                     "super-elliptic exponent of the groups that give none: 1 = sum", since=3))
     ZERO_FIRST = ZERO_REST = "keep"
-    INCREASING = True  # a max of sums and n-norms
+    MONOTONE = (1, 1)  # a max of sums and n-norms
     KERNELS = OperatorKernels(combine=controlled_combine, rows=controlled_rows,
                               bound=controlled_bound)
 

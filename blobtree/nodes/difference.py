@@ -103,6 +103,7 @@ class Difference(Operator):
                     since=4),)
     ZERO_FIRST, ZERO_REST = "kill", "keep"
     LIPSCHITZ = "max"
+    MONOTONE = (1, -1)  # min(f_1, 1 - f_j) clamped at 0
     KERNELS = OperatorKernels(combine=difference_combine, rows=difference_rows,
                               bound=difference_bound)
 

@@ -33,7 +33,7 @@ class Intersection(Operator):
     ZERO_FIRST = ZERO_REST = "kill"
     LIPSCHITZ = "max"
     IDEMPOTENT = True
-    INCREASING = True  # a min
+    MONOTONE = (1, 1)  # a min
     KERNELS = OperatorKernels(combine=intersection_combine, rows=intersection_rows,
                               bound=intersection_bound)
 

@@ -102,7 +102,7 @@ class SuperBlend(Operator):
     ASSOCIATIVE = True
     SMOOTH = True
     LIPSCHITZ = "norm"
-    INCREASING = True  # an n-norm of fields >= 0
+    MONOTONE = (1, 1)  # an n-norm of fields >= 0
     KERNELS = OperatorKernels(combine=super_combine, rows=super_rows, bound=super_bound)
 
     def op_params(self):

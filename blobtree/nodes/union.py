@@ -32,7 +32,7 @@ class Union(Operator):
     LIPSCHITZ = "max"
     ASSOCIATIVE = True
     IDEMPOTENT = True
-    INCREASING = True  # a max
+    MONOTONE = (1, 1)  # a max
     KERNELS = OperatorKernels(combine=union_combine, rows=union_rows,
                               bound=union_bound)
 

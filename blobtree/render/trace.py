@@ -235,10 +235,10 @@ def trace_packet(code, params, boxes, lips, O, D, n, t, t_end, eps, eps_rel, del
     (``batch.eval_rows``: SIMD over rays).  A segment ends for
     all once every ray has crossed it (the next is ``SEGMENT_GROWTH`` times the longest crossing),
     or once some ray's steps are short next to what is left of it (the next is ``GROWTH`` times the
-    shortest step).  Where the bound is 0 (the field cannot rise in the box along the rays)
-    the rays cross their segments in one step.  Scratch: pk (8, n)
-    floats, ids (2, n) ints; pts, vs, tmp as ``eval_rows`` takes them (n at most their
-    columns)."""
+    shortest step).  Where the bound is 0 the rays cross their segments in one step, without
+    evaluating the field where it is the same all over the box (no support meets it).
+    Scratch: pk (8, n) floats, ids (2, n) ints; pts, vs, tmp as ``eval_rows`` takes them (n at
+    most their columns)."""
     values = interp.bounds_use_values(code)
     act, mov = ids[0], ids[1]
     m = 0
@@ -273,10 +273,17 @@ def trace_packet(code, params, boxes, lips, O, D, n, t, t_end, eps, eps_rel, del
                 lox, loy, loz = min(lox, x), min(loy, y), min(loz, z)
                 hix, hiy, hiz = max(hix, x), max(hiy, y), max(hiz, z)
         k = act[0]
-        _, lam, _, _ = interp.bound_box_at(code, params, boxes, lips, lox, loy, loz, hix, hiy,
-                                           hiz, O[k, 0] + t[k] * D[k, 0],
-                                           O[k, 1] + t[k] * D[k, 1], O[k, 2] + t[k] * D[k, 2],
-                                           ax, ay, az, spread, values, vstack, pstack)
+        _, lam, below, _ = interp.bound_box_at(code, params, boxes, lips, lox, loy, loz, hix,
+                                               hiy, hiz, O[k, 0] + t[k] * D[k, 0],
+                                               O[k, 1] + t[k] * D[k, 1],
+                                               O[k, 2] + t[k] * D[k, 2], ax, ay, az, spread,
+                                               values, vstack, pstack)
+        if lam == 0.0 and below == np.inf:  # the field is the same all over the box
+            for j in range(a):
+                k = act[j]
+                pk[LAST, k] = pk[TE, k] - t[k]
+                t[k] = pk[TE, k]
+            a = _still_going(act, a, out, t, t_end)
         creep = False
         while not creep:  # lam bounds the field's rise on every segment: step each ray on
             mv = 0  # inside its own (across it where the field cannot rise there)
