@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given
 from PIL import Image
 
 import blobtree as bt
@@ -22,6 +23,8 @@ from blobtree.render import (
 )
 from blobtree.render.camera import default_camera
 from blobtree.render.shade import default_lights
+from tests.conftest import examples
+from tests.trees import trees
 
 BLACK = (0.0, 0.0, 0.0)
 
@@ -105,6 +108,54 @@ def test_thin_spine_beside_a_big_body_is_never_missed():
     half = math.tan(math.radians(20.0)) * 4.0
     rows = [j for j in range(64) if abs((1 - 2 * (j + 0.5) / 64) * half) < 1.1]
     assert all(hit[j, 28:36].any() for j in rows)
+
+
+def _assert_pixels_find_surfaces(tree: bt.Node, n: int, camera: Camera | None = None) -> None:
+    """Every pixel whose ray (through its centre) runs inside the surface (field >= 0.5, by
+    dense samples of the reference) for longer than a pixel's width there is covered, and none
+    whose ray stays clearly outside (field < 0.49) is."""
+    lo, hi = tree.bounds()
+    cam = camera or default_camera(tree.program(), n, n)
+    img = render(tree, n, n, camera=cam, background=(0.0, 0.0, 1.0), shadows=False)
+    fwd, right, up = cam.basis()
+    half = math.tan(math.radians(cam.fov) / 2.0)  # the image plane's half height at depth 1
+    eye = np.array(cam.eye)
+    far = float(np.linalg.norm(np.maximum(np.abs(eye - lo), np.abs(eye - hi))))
+    ts = np.linspace(0.0, far, 1001)
+    sx = (2 * (np.arange(n) + 0.5) / n - 1)[None, :, None]
+    sy = (1 - 2 * (np.arange(n) + 0.5) / n)[:, None, None]
+    D = (fwd + half * (sx * right + sy * up)).reshape(-1, 3)
+    D /= np.linalg.norm(D, axis=1)[:, None]
+    f = tree.reference((eye + ts[None, :, None] * D[:, None, :]).reshape(-1, 3))[0]
+    inside = f.reshape(n * n, len(ts)) >= 0.5
+    hit = np.any(img != [0, 0, 255], axis=2).ravel()
+    peak = f.reshape(n * n, len(ts)).max(axis=1)
+    assert not np.any(hit & (peak < 0.49))
+    for k in np.flatnonzero(inside.any(axis=1) & ~hit):  # a missed surface must be thin
+        start = int(np.argmax(inside[k]))
+        run = np.argmin(inside[k, start:]) if not inside[k, start:].all() else len(ts) - start
+        assert run * (ts[1] - ts[0]) <= 2.0 * ts[start] * half / n, (k, peak[k])
+
+
+@examples(0.25)
+@given(trees())
+def test_packets_find_every_surface_a_pixel_crosses(tree):
+    """On random trees the packet tracer's rise bounds never step over a surface a pixel's ray
+    crosses, nor find one it does not."""
+    lo, hi = tree.bounds()
+    if not (np.all(lo <= hi) and np.all(np.isfinite(lo))):
+        return
+    _assert_pixels_find_surfaces(tree, 24)
+
+
+def test_packets_find_small_blobs_and_a_disc_edge_on():
+    """Rays that pass small blobs at every depth, and a thin disc nearly edge on, find each
+    one a pixel's ray runs through: the rays leave some blobs (no rise) while nearing others."""
+    rng = np.random.default_rng(3)
+    blobs = [bt.Point(radius=0.25, center=tuple(c)) for c in rng.uniform(-1.5, 1.5, (40, 3))]
+    disc = bt.Point(radius=2.0).scale(1.0, 0.04, 1.0)
+    cam = Camera(eye=(0.3, 0.25, 6.0), target=(0.0, 0.0, 0.0), fov=40.0)
+    _assert_pixels_find_surfaces(bt.Blend(disc, *blobs), 48, cam)
 
 
 def test_silhouette_area_matches_projected_disc():

@@ -284,6 +284,8 @@ def trace_packet(code, params, boxes, lips, O, D, n, t, t_end, eps, eps_rel, del
                 pk[LAST, k] = pk[TE, k] - t[k]
                 t[k] = pk[TE, k]
             a = _still_going(act, a, out, t, t_end)
+        elif below ** 2 >= (hix - lox) ** 2 + (hiy - loy) ** 2 + (hiz - loz) ** 2:
+            lam = 0.0  # the field stays below ISO all over the box: cross it in one step
         creep = False
         while not creep:  # lam bounds the field's rise on every segment: step each ray on
             mv = 0  # inside its own (across it where the field cannot rise there)
