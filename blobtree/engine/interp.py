@@ -75,7 +75,7 @@ RISE, FALL = 7, 8
 @kernel(nrt=True)
 def scratch(depth):
     """Per-thread stacks for ``eval_point`` and the bound passes: values (depth, COLUMNS):
-    field, gradient, colour (and a bound's rise); and points (depth, 30): the point to
+    field, gradient, colour (and a bound's rise and fall); and points (depth, 30): the point to
     restore, the Jacobian to the outer frame, warp scratch."""
     return np.empty((depth, COLUMNS)), np.empty((depth, 30))
 
@@ -357,12 +357,11 @@ def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox,
     unit vector d (a cone of rays): each row carries how fast it can rise and fall there (a
     primitive outside warps rises as its ``rise`` kernel says, 0 where the whole box moves
     away from it: :func:`_prim_moves`; an operator by :func:`_op_moves`; anything else as fast
-    as its plain bound).  Returns
-    (the bound, the rise: the bound when ``spread`` < 0).  Bounds in vs[:, 0], rises and falls
-    in vs[:, RISE] and vs[:, FALL], the regions saved across warps in vs[pp, 1:7] (no field
-    values: see :func:`_bounded`).  The region also lies within the ball of radius ``rad``
-    about the box's centre (:func:`carry`: a warp's region is a ball); leaving a warp, that is
-    again the box's own."""
+    as its plain bound).  Returns (the bound, the rise: the bound when ``spread`` < 0).  Bounds
+    in vs[:, 0], rises and falls in vs[:, RISE] and vs[:, FALL], the regions saved across warps
+    in vs[pp, 1:7] (no field values: see :func:`_bounded`).  The region also lies within the
+    ball of radius ``rad`` about the box's centre (:func:`carry`: a warp's region is a ball);
+    leaving a warp, that is again the box's own."""
     n = code.shape[0]
     rising = spread >= 0.0
     sp = 0
@@ -432,8 +431,9 @@ def _bounded(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox, o
     to say how far its field surely stays below and above ISO.  Returns (the field at o; the
     bound; how far from o the field surely stays below ISO, and above it).  Costlier than
     :func:`_lipschitz` where no such operator is (a program of blends).  It bounds no rise
-    along rays (:func:`_lipschitz`): on the Murex, the rises cost the ray tracer more than
-    they saved (1.01-1.08x its time).
+    along rays (:func:`_lipschitz`): on the Murex, whose ray programs all take this pass, the
+    rises saved nothing measurable (1.01-1.08x its render time at 256x256, ``bench/ab.py``,
+    within that day's noise).
 
     Stacks: fields in vs[:, 0], bounds in vs[:, BOUND], the distances an operator proved in
     vs[:, BELOW] and vs[:, ABOVE] (``kmath.safe_distances`` adds those of the value and bound);

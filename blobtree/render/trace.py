@@ -235,8 +235,9 @@ def trace_packet(code, params, boxes, lips, O, D, n, t, t_end, eps, eps_rel, del
     (``batch.eval_rows``: SIMD over rays).  A segment ends for
     all once every ray has crossed it (the next is ``SEGMENT_GROWTH`` times the longest crossing),
     or once some ray's steps are short next to what is left of it (the next is ``GROWTH`` times the
-    shortest step).  Where the bound is 0 the rays cross their segments in one step, without
-    evaluating the field where it is the same all over the box (no support meets it).
+    shortest step).  Where the bound is 0, or the bound pass proves the field below ISO all
+    over the box, the rays cross their segments in one step (without evaluating the field
+    where it is the same all over the box: no support meets it).
     Scratch: pk (8, n) floats, ids (2, n) ints; pts, vs, tmp as ``eval_rows`` takes them (n at
     most their columns)."""
     values = interp.bounds_use_values(code)
