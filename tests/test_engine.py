@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 
 import blobtree as bt
 from tests.conftest import examples
-from tests.trees import check_box_bounds, sample_points, trees
+from tests.trees import box_bounds_setup, check_box_bounds, sample_points, trees
 
 
 @given(trees(), st.integers(0, 2**31))
@@ -370,14 +370,10 @@ def test_rise_bounds_hold_along_cones_on_random_trees(tree, seed, frac, width):
     cone, and the field stays below 0.5 along those directions as far as they say."""
     from blobtree.engine import interp as K
 
-    prog = tree.program()
-    lo, hi = tree.bounds()
-    if np.any(lo > hi):
+    setup = box_bounds_setup(tree, seed, frac)
+    if setup is None:
         return
-    rng = np.random.default_rng(seed)
-    size = frac * (hi - lo) + 1e-3
-    vs, ps = K.scratch(prog.depth)
-    code, params, boxes, lips = prog.arrays
+    (code, params, boxes, lips), (vs, ps), rng, size = setup
     for corner in sample_points(tree, 20, seed):
         axis = rng.normal(size=3)
         axis /= np.linalg.norm(axis)

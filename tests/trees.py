@@ -93,6 +93,19 @@ def sample_points(tree: bt.Node, n: int, seed: int, grow: float = 0.2) -> np.nda
     return np.random.default_rng(seed).uniform(lo - pad, hi + pad, (n, 3))
 
 
+def box_bounds_setup(tree: bt.Node, seed: int, frac: float):
+    """(The tree's program arrays, bound scratch, a generator, the size of boxes ``frac`` of
+    its extent) for sampling bounds over boxes; None for an empty tree."""
+    from blobtree.engine import interp as K
+
+    prog = tree.program()
+    lo, hi = tree.bounds()
+    if np.any(lo > hi):
+        return None
+    return (prog.arrays, K.scratch(prog.depth), np.random.default_rng(seed),
+            frac * (hi - lo) + 1e-3)
+
+
 def check_box_bounds(tree: bt.Node, seed: int, frac: float, count: int) -> None:
     """Over ``count`` boxes of ``frac`` of the tree's extent, at sampled corners, both bound
     passes of ``bound_box_at`` (value-aware and plain) give the reference's field at a point of
@@ -100,14 +113,10 @@ def check_box_bounds(tree: bt.Node, seed: int, frac: float, count: int) -> None:
     the distances they give."""
     from blobtree.engine import interp as K
 
-    prog = tree.program()
-    lo, hi = tree.bounds()
-    if np.any(lo > hi):
+    setup = box_bounds_setup(tree, seed, frac)
+    if setup is None:
         return
-    rng = np.random.default_rng(seed)
-    size = frac * (hi - lo) + 1e-3
-    vs, ps = K.scratch(prog.depth)
-    code, params, boxes, lips = prog.arrays
+    (code, params, boxes, lips), (vs, ps), rng, size = setup
     for corner in sample_points(tree, count, seed):
         x = rng.uniform(corner, corner + size)
         Q = rng.uniform(corner, corner + size, (200, 3))
