@@ -71,9 +71,9 @@ def quadric_rise(p, o, cx, cy, cz, kx, ky, kz, lox, loy, loz, hix, hiy, hiz, dx,
     ey = p[o + 4] * dx + p[o + 5] * dy + p[o + 6] * dz
     ez = p[o + 8] * dx + p[o + 9] * dy + p[o + 10] * dz
     ax, ay, az = kx * ex, ky * ey, kz * ez  # -ds/dt / 2 is -(M x + t - c) . a, plus the spread
-    bx, by, bz = 0.5 * (lox + hix), 0.5 * (loy + hiy), 0.5 * (loz + hiz)
     hx, hy, hz = 0.5 * (hix - lox), 0.5 * (hiy - loy), 0.5 * (hiz - loz)
-    qx, qy, qz = map_point(p, o, bx, by, bz)
+    # the local image of the box's centre, and the half extents of the box around its image
+    qx, qy, qz, ux, uy, uz = map_box(p, o, lox, loy, loz, hix, hiy, hiz)
     qx, qy, qz = qx - cx, qy - cy, qz - cz
     fall = -(qx * ax + qy * ay + qz * az)
     for j in range(3):  # plus the box's reach along the linear term's gradient M^T a
@@ -86,8 +86,7 @@ def quadric_rise(p, o, cx, cy, cz, kx, ky, kz, lox, loy, loz, hix, hiy, hiz, dx,
     if fall <= 0.0:
         return 0.0
     least = 0.0  # the least s over the box around the region's image
-    lx, ly, lz, ux, uy, uz = map_box(p, o, lox, loy, loz, hix, hiy, hiz)
-    for off, half, k in ((lx - cx, ux, kx), (ly - cy, uy, ky), (lz - cz, uz, kz)):
+    for off, half, k in ((qx, ux, kx), (qy, uy, ky), (qz, uz, kz)):
         gap = max(abs(off) - half, 0.0)
         least += k * gap * gap
     if least >= 1.0:
