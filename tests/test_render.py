@@ -22,7 +22,7 @@ from blobtree.render import (
     tiles,
 )
 from blobtree.render.camera import default_camera
-from blobtree.render.shade import default_lights
+from blobtree.render.shade import SRGB_STEPS, _power, default_lights, linear_to_srgb_byte
 from tests.conftest import examples
 from tests.trees import trees
 
@@ -237,6 +237,57 @@ def test_lambert_shading_is_gamma_encoded():
     img = render(tree, 33, 33, camera=cam, lights=side, background=BLACK, ambient=0.0,
                  specular=0.0).astype(int)
     assert img[16, 9].sum() > 3 * 60 and img[16, 24].sum() == 0
+
+
+def test_srgb_bytes_round_the_iec_encoding():
+    def encode(c):  # IEC 61966-2-1, then rounded to 8 bits
+        c = np.clip(c, 0.0, 1.0)
+        s = np.where(c <= 0.0031308, 12.92 * c, 1.055 * c ** (1 / 2.4) - 0.055)
+        return np.floor(s * 255.0 + 0.5).astype(int)
+
+    rng = np.random.default_rng(3)
+    steps = np.repeat(SRGB_STEPS, 4) * (1.0 + rng.choice([-1e-9, 1e-9, -1e-6, 1e-6], 1020))
+    c = np.concatenate([rng.uniform(-0.2, 1.2, 20_000), rng.uniform(0.0, 0.004, 2000), steps,
+                        [0.0, 1.0, -1.0, 2.0]])
+    got = np.array([linear_to_srgb_byte(x) for x in c])
+    assert np.array_equal(got, encode(c))
+    assert set(got) == set(range(256))
+
+
+def test_integer_shininess_powers_match_pow():
+    for n in (0.0, 1.0, 2.0, 30.0, 40.0, 120.0, 2.5, 40.25, 1e5):
+        for x in (0.0, 0.3, 0.9, 0.999, 1.0):
+            assert _power(x, n) == pytest.approx(x ** n, rel=1e-13, abs=1e-300)
+
+
+def test_each_pixel_shows_its_own_blended_albedo():
+    # A red and a green blob blended: the albedo changes from pixel to pixel within a packet
+    # (the shader reuses a decoded albedo only where the field's colour is the same).
+    tree = (bt.Point(radius=2.0).translate(-0.9, 0, 0).color((0.8, 0.2, 0.2))
+            + bt.Point(radius=2.0).translate(0.9, 0, 0).color((0.2, 0.8, 0.2)))
+    cam = Camera(eye=(0.0, 0.0, 6.0), target=(0.0, 0.0, 0.0), fov=40.0)
+    n = 40
+    img = render(tree, n, n, camera=cam, lights=[Light(direction=(0.0, 0.0, -1.0))],
+                 background=BLACK, ambient=0.0, specular=0.0, shadows=False).astype(int)
+    half = np.tan(np.radians(20.0))
+    u = (2 * (np.arange(n) + 0.5) / n - 1) * half
+    d = np.stack([np.tile(u, n), -np.repeat(u, n), -np.ones(n * n)], axis=1)
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    o = np.tile([0.0, 0.0, 6.0], (n * n, 1))
+    t = intersect(tree, o, d)
+    hit = t >= 0
+    p = o[hit] + t[hit, None] * d[hit]
+    prog = tree.program()
+    g = prog.gradient(p)
+    ndl = np.clip((g / np.linalg.norm(g, axis=1, keepdims=True)) @ [0.0, 0.0, -1.0], 0, 1)
+    srgb = prog.albedo(p)
+    lin = np.where(srgb <= 0.04045, srgb / 12.92, ((srgb + 0.055) / 1.055) ** 2.4) * ndl[:, None]
+    expected = np.round(255 * np.where(lin <= 0.0031308, 12.92 * lin,
+                                       1.055 * lin ** (1 / 2.4) - 0.055))
+    got = img.reshape(-1, 3)[hit]
+    assert len(np.unique(srgb[:, 0].round(6))) > 50  # the albedo varies across the image
+    assert np.abs(got - expected).max() <= 2
+    assert np.mean(np.abs(got - expected) > 0) < 0.02
 
 
 # ----- sampling, tiles and reproducibility -----------------------------------------------------

@@ -83,12 +83,23 @@ def srgb_to_linear(c):
     return c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4
 
 
+#: Where the 8-bit sRGB code steps up: the linear value of each half level (k - 0.5) / 255,
+#: k = 1 ... 255 (:func:`linear_to_srgb_byte`).
+SRGB_STEPS = srgb_to_linear_array((np.arange(1, 256) - 0.5) / 255.0)
+
+
 @kernel
 def linear_to_srgb_byte(c):
-    """Linear [0, 1] (clamped) to an 8-bit sRGB value, rounded."""
-    c = min(max(c, 0.0), 1.0)
-    s = 12.92 * c if c <= 0.0031308 else 1.055 * c ** (1.0 / 2.4) - 0.055
-    return np.uint8(int(s * 255.0 + 0.5))
+    """Linear light (clamped to [0, 1]) to its 8-bit sRGB code, rounded: how many of the
+    :data:`SRGB_STEPS` it reaches, by binary search (no power per pixel)."""
+    lo, hi = 0, SRGB_STEPS.shape[0]
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if SRGB_STEPS[mid] <= c:
+            lo = mid + 1
+        else:
+            hi = mid
+    return np.uint8(lo)
 
 
 #: Layout of the packed look (``RenderSettings.packed_look``): ambient, specular, shininess,
@@ -155,18 +166,42 @@ def _smoothstep(x):
 #: whether the light being shaded may reach the hit (1: it faces the light and no shadow ray
 #: found it blocked yet).
 T, T_END, T1, T0, EPS, OUT, SPLIT, HIT, INSIDE, REACHED = range(10)
-#: Columns of a packet's surface table: a hit's outward unit normal, linear albedo and colour.
-NX, NY, NZ, AR, AG, AB, CR, CG, CB = range(9)
+#: sRGB albedos this close are decoded once (a field's colour is its children's weighted by
+#: their fields, so one colour blended with itself comes back a few ulps off; the decoded
+#: values then differ by less than 1e-12, against 8-bit steps of about 1/255).
+ALBEDO_SAME = 1e-13
+#: Columns of a packet's surface table: a hit's outward unit normal, linear albedo, colour, and
+#: its albedo as the field gave it (sRGB, clamped to [0, 1]).
+NX, NY, NZ, AR, AG, AB, CR, CG, CB, SR, SG, SB = range(12)
 
 
 @kernel(inline="always")
-def _surface(code, params, boxes, near, nlo, nhi, px, py, pz, vx, vy, vz, look, row, vstack,
-             pstack):
+def _power(x, n):
+    """x ** n, by repeated squaring where n is a whole number below 2^16 (the looks'
+    shininess), else by ``**``."""
+    if n != np.floor(n) or n >= 65536.0:
+        return x ** n
+    k = int(n)
+    r = 1.0
+    while k:
+        if k & 1:
+            r *= x
+        x *= x
+        k >>= 1
+    return r
+
+
+@kernel(inline="always")
+def _surface(code, params, boxes, near, nlo, nhi, px, py, pz, vx, vy, vz, look, surf, k, last,
+             vstack, pstack):
     """The outward normal, albedo and ambient-lit colour at surface point p seen along view
-    direction v (unit, toward the surface), into ``row`` (columns :data:`NX` ...).  ``near`` is
-    the program specialised to the box [nlo, nhi] around p (or the full program and its
-    bounds).  ``look``: the ambient light, brighter from above by ``SKY`` and darkened by the
-    field's :func:`occlusion`."""
+    direction v (unit, toward the surface), into row k of the surface table ``surf`` (columns
+    :data:`NX` ...); the linear albedo is row ``last``'s (the last hit's, -1: none) where the
+    field gives the same colour (within :data:`ALBEDO_SAME`).  ``near`` is the program
+    specialised to the box [nlo, nhi] around p (or the full program and its bounds).
+    ``look``: the ambient light, brighter from above by ``SKY`` and darkened by the field's
+    :func:`occlusion`."""
+    row = surf[k]
     interp.eval_point(near[0], params, near[1], px, py, pz, 2, vstack, pstack)
     # The field decreases outward, so the outward normal is -grad f.
     nx, ny, nz = -vstack[0, 1], -vstack[0, 2], -vstack[0, 3]
@@ -177,7 +212,13 @@ def _surface(code, params, boxes, near, nlo, nhi, px, py, pz, vx, vy, vz, look, 
         nx, ny, nz = -vx, -vy, -vz
     row[NX], row[NY], row[NZ] = nx, ny, nz
     for c in range(3):
-        row[AR + c] = srgb_to_linear(min(max(vstack[0, 4 + c], 0.0), 1.0))
+        row[SR + c] = min(max(vstack[0, 4 + c], 0.0), 1.0)
+    prev = surf[max(last, 0)]
+    same = last >= 0 and (abs(row[SR] - prev[SR]) <= ALBEDO_SAME
+                          and abs(row[SG] - prev[SG]) <= ALBEDO_SAME
+                          and abs(row[SB] - prev[SB]) <= ALBEDO_SAME)
+    for c in range(3):
+        row[AR + c] = prev[AR + c] if same else srgb_to_linear(row[SR + c])
     ambient = look[AMBIENT] * (1.0 - look[SKY] * 0.5 * (1.0 - ny))
     if look[OCCLUSION] > 0.0:
         ambient *= 1.0 - look[OCCLUSION] * occlusion(
@@ -211,7 +252,7 @@ def _add_light(lights, j, look, row, lx, ly, lz, vx, vy, vz, lit):
     if hn > 0.0:
         ndh = (row[NX] * hx + row[NY] * hy + row[NZ] * hz) / hn
         if ndh > 0.0:
-            spec = look[SPECULAR] * ndh ** look[SHININESS]
+            spec = look[SPECULAR] * _power(ndh, look[SHININESS])
     for c in range(3):
         row[CR + c] += lit * lights[j, 4 + c] * (row[AR + c] * ndl + spec)
 
@@ -282,6 +323,7 @@ def shade_packet(code, params, boxes, lips, local, llo, lhi, n, lights, lo, hi, 
     _, rays, O, D, SO, SD, surf, pk, ids, pts, vs, tmp, _ = packet
     # a long program's shadow rays take programs of their own from the start (STRETCH_MIN)
     own = code.shape[0] >= STRETCH_MIN
+    last = -1
     for k in range(n):
         t = rays[HIT, k]
         if t >= 0.0:
@@ -290,7 +332,8 @@ def shade_packet(code, params, boxes, lips, local, llo, lhi, n, lights, lo, hi, 
                 near, nlo, nhi = (code, boxes, lips), lo, hi
             _surface(code, params, boxes, near, nlo, nhi, O[k, 0] + t * D[k, 0],
                      O[k, 1] + t * D[k, 1], O[k, 2] + t * D[k, 2], D[k, 0], D[k, 1], D[k, 2],
-                     look, surf[k], vstack, pstack)
+                     look, surf, k, last, vstack, pstack)
+            last = k
     for j in range(lights.shape[0]):
         d_local = d_full = np.inf  # the first candidate segments of the two stretches
         for k in range(n):

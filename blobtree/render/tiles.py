@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -30,6 +31,7 @@ from .shade import (
     OCCLUSION,
     OCCLUSION_RADIUS,
     OUT,
+    SB,
     SHININESS,
     SKY,
     SPECULAR,
@@ -120,8 +122,11 @@ class RenderSettings:
         look[SKY] = self.sky
         return look
 
+    @cached_property
     def backdrop(self) -> tuple[np.ndarray, np.ndarray]:
-        """Each image row's backdrop: (height, 3) linear RGB and (height, 3) sRGB bytes."""
+        """Each image row's backdrop: (height, 3) linear RGB and (height, 3) sRGB bytes,
+        computed once (every tile reads them; decoding them per tile took 0.12 ms of numpy a
+        tile, holding the lock other tiles wait on)."""
         top = np.array(self.background)
         bottom = top if self.background_bottom is None else np.array(self.background_bottom)
         s = ((np.arange(self.height) + 0.5) / self.height)[:, None]
@@ -168,7 +173,7 @@ def trace_rect(prog, cam: np.ndarray, lights: np.ndarray, settings: RenderSettin
     diag = float(np.linalg.norm(hi - lo))
     s = settings
     out = np.empty((y1 - y0, x1 - x0, 3), dtype=np.uint8)
-    bg, bg_bytes = s.backdrop()
+    bg, bg_bytes = s.backdrop
     # Camera rays may skip features thinner than half a pixel's footprint (along the ray).
     eps_rel = float(np.linalg.norm(cam[9:12])) / s.height
     # No ray meets the surface before reaching the bounds box, nor after its farthest corner.
@@ -203,7 +208,7 @@ def _packet_scratch(depth: int, ncode: int, work: np.ndarray) -> tuple:
     the box."""
     n = SUB * SUB
     return (np.empty((n, 4)), np.empty((10, n)), np.empty((n, 3)), np.empty((n, 3)),
-            np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 9)), np.empty((8, n)),
+            np.empty((n, 3)), np.empty((n, 3)), np.empty((n, SB + 1)), np.empty((8, n)),
             np.empty((2, n), dtype=np.int64), np.zeros((depth + 1, 3, BATCH)),
             np.empty((depth, BATCH)), np.empty((depth, 7)),
             (*_program_buffers(ncode), work, np.empty(3), np.empty(3)))
