@@ -298,8 +298,8 @@ def _trace_stretches(code, params, boxes, lips, n, delta0, packet, vstack, pstac
             ln = specialize(code, params, boxes, lips, lo, hi, oc, ob, ol, work)
             prog = (oc[:ln], ob[:ln], ol[:ln])
         trace_packet(prog[0], params, prog[1], prog[2], SO, SD, n, rays[T], rays[SPLIT],
-                     rays[EPS], 0.0, min(delta0, stretch), rays[OUT], pk, ids, pts, vs, tmp,
-                     vstack, pstack)
+                     rays[EPS], 0.0, min(delta0, stretch), rays[OUT], False, pk, ids, pts, vs,
+                     tmp, vstack, pstack)
         for k in range(n):
             if rays[OUT, k] >= 0.0:
                 rays[REACHED, k] = 0.0
@@ -365,8 +365,8 @@ def shade_packet(code, params, boxes, lips, local, llo, lhi, n, lights, lo, hi, 
                 d_local = min(d_local, 0.05 * (tb - t0) + se)
         if shadows and not own:
             trace_packet(local[0], params, local[1], local[2], SO, SD, n, rays[T],
-                         rays[T_END], rays[EPS], 0.0, d_local, rays[OUT], pk, ids, pts, vs, tmp,
-                         vstack, pstack)
+                         rays[T_END], rays[EPS], 0.0, d_local, rays[OUT], False, pk, ids, pts,
+                         vs, tmp, vstack, pstack)
         if shadows:
             for k in range(n):  # then on the full program, past the local box
                 if rays[OUT, k] >= 0.0:

@@ -45,7 +45,7 @@ from .shade import (
     shade_packet,
     srgb_to_linear_array,
 )
-from .trace import LOW, RISE, clip_box, march_cone, trace_packet
+from .trace import LOW, PACKET_ROWS, RISE, clip_box, march_cone, trace_packet
 
 #: Largest image side accepted (a 16384^2 image is 805 MB of RGB).
 MAX_SIDE = 16384
@@ -208,9 +208,9 @@ def _packet_scratch(depth: int, ncode: int, work: np.ndarray) -> tuple:
     the box."""
     n = SUB * SUB
     return (np.empty((n, 4)), np.empty((10, n)), np.empty((n, 3)), np.empty((n, 3)),
-            np.empty((n, 3)), np.empty((n, 3)), np.empty((n, SB + 1)), np.empty((8, n)),
-            np.empty((2, n), dtype=np.int64), np.zeros((depth + 1, 3, BATCH)),
-            np.empty((depth, BATCH)), np.empty((depth, 7)),
+            np.empty((n, 3)), np.empty((n, 3)), np.empty((n, SB + 1)),
+            np.empty((PACKET_ROWS, n)), np.empty((3, n), dtype=np.int64),
+            np.zeros((depth + 1, 3, BATCH)), np.empty((depth, BATCH)), np.empty((depth, 7)),
             (*_program_buffers(ncode), work, np.empty(3), np.empty(3)))
 
 
@@ -305,8 +305,8 @@ def _sub_block(code, params, boxes, lips, local, llo, lhi, cam, lights, lo, hi, 
             if t0 <= t1:
                 delta0 = min(delta0, DELTA0 * (t1 - t0))
         trace_packet(local[0], params, local[1], local[2], O, D, n, rays[T], rays[T_END],
-                     rays[EPS], eps_rel, delta0 + eps_abs, rays[OUT], pk, ids, pts, vs, tmp,
-                     vstack, pstack)
+                     rays[EPS], eps_rel, delta0 + eps_abs, rays[OUT], True, pk, ids, pts, vs,
+                     tmp, vstack, pstack)
         d_full = np.inf
         for k in range(n):  # rays that got past the local stretch go on on the full program
             rays[HIT, k], rays[INSIDE, k] = rays[OUT, k], 1.0
@@ -316,7 +316,8 @@ def _sub_block(code, params, boxes, lips, local, llo, lhi, cam, lights, lo, hi, 
                 rays[INSIDE, k] = 0.0
                 d_full = min(d_full, DELTA0 * (rays[T1, k] - rays[T, k]))
         trace_packet(code, params, boxes, lips, O, D, n, rays[T], rays[T_END], rays[EPS],
-                     eps_rel, d_full + eps_abs, rays[OUT], pk, ids, pts, vs, tmp, vstack, pstack)
+                     eps_rel, d_full + eps_abs, rays[OUT], True, pk, ids, pts, vs, tmp, vstack,
+                     pstack)
         for k in range(n):
             if rays[INSIDE, k] == 0.0:
                 rays[HIT, k] = rays[OUT, k]

@@ -71,31 +71,40 @@ def clip_box(ox, oy, oz, dx, dy, dz, lo, hi, tmin, tmax):
 
 
 @kernel(inline="always")
+def _estimate(ta, fa, tb, fb):
+    """Regula falsi's next estimate of the root of f - ISO in [ta, tb] (fa < 0 <= fb): where
+    the secant crosses 0, or the midpoint if that falls outside the bracket."""
+    t = (ta * fb - tb * fa) / (fb - fa)
+    return t if ta < t < tb else 0.5 * (ta + tb)
+
+
+@kernel(inline="always")
+def _narrow(ta, fa, tb, fb, side, t, f):
+    """The bracket (ta, fa, tb, fb, side) once f - ISO is f at t inside it (Illinois: an end
+    kept twice running has its value halved; side is the end moved last, -1 or 1)."""
+    if f >= 0.0:
+        if side == 1:
+            fa *= 0.5
+        return ta, fa, t, f, 1
+    if side == -1:
+        fb *= 0.5
+    return t, f, tb, fb, -1
+
+
+@kernel(inline="always")
 def _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, ta, fa, tb, fb, tol, vstack, pstack):
     """Root of f - ISO in [ta, tb] with fa < 0 <= fb (Illinois regula falsi), stopping once
     the secant slope puts the root within tol of the estimate."""
     side = 0
-    t = (ta * fb - tb * fa) / (fb - fa)
     for _ in range(REFINE_ITERS):
-        if not (ta < t < tb):
-            t = 0.5 * (ta + tb)
+        t = _estimate(ta, fa, tb, fb)
         f = interp.eval_point(code, params, boxes, ox + t * dx, oy + t * dy, oz + t * dz, 0,
                                vstack, pstack) - ISO
         if abs(f) * (tb - ta) <= tol * (fb - fa):
             return t
-        if f >= 0.0:
-            tb, fb = t, f
-            if side == 1:
-                fa *= 0.5
-            side = 1
-        else:
-            ta, fa = t, f
-            if side == -1:
-                fb *= 0.5
-            side = -1
+        ta, fa, tb, fb, side = _narrow(ta, fa, tb, fb, side, t, f)
         if tb - ta <= tol:
             break
-        t = (ta * fb - tb * fa) / (fb - fa)
     return 0.5 * (ta + tb)
 
 
@@ -158,7 +167,11 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
 #: leaving a lone convex surface, positive where it passed another surface, which it came
 #: nearest around the peak; soft shadows use it), and where it peaked.  These three carry over
 #: from one call to the next (the caller sets them to inf, 0 and anything before the first).
-F, TN, LAST, TS, TE, LOW, RISE, PEAK = range(8)
+#: Then, for a ray that crossed ISO, what :func:`_refine_packet` keeps: the field (minus ISO)
+#: past the root, the end of the bracket moved last, and the tolerance.
+F, TN, LAST, TS, TE, LOW, RISE, PEAK, FB, SIDE, TOL = range(11)
+#: Rows of :func:`trace_packet`'s scratch ``pk``.
+PACKET_ROWS = 11
 
 
 @kernel(inline="always")
@@ -178,6 +191,43 @@ def _packet_field(code, params, boxes, O, D, at, ids, m, pts, vs, tmp, vstack, p
         for r in range(3):
             pts[0, r, j] = O[k, r] + at[k] * D[k, r]
     eval_rows(code, params, boxes, 0, code.shape[0], pts, m, vs, tmp)
+
+
+@kernel(inline="always")
+def _refine_packet(code, params, boxes, O, D, hits, h, t, out, pk, pts, vs, tmp, vstack,
+                   pstack):
+    """:func:`_refine` for the rays k = hits[:h] together, one batch per iteration: ray k's
+    bracket is [t[k], out[k]], with the field minus ISO pk[F, k] and pk[FB, k] there and
+    tolerance pk[TOL, k]; its root goes to out[k]."""
+    for j in range(h):
+        pk[SIDE, hits[j]] = 0.0
+    for _ in range(REFINE_ITERS):
+        if h == 0:
+            return
+        for j in range(h):
+            k = hits[j]
+            pk[TN, k] = _estimate(t[k], pk[F, k], out[k], pk[FB, k])
+        _packet_field(code, params, boxes, O, D, pk[TN], hits, h, pts, vs, tmp, vstack,
+                      pstack)
+        b = 0
+        for j in range(h):
+            k = hits[j]
+            tn, f, tol = pk[TN, k], vs[0, j] - ISO, pk[TOL, k]
+            if abs(f) * (out[k] - t[k]) <= tol * (pk[FB, k] - pk[F, k]):
+                out[k] = tn
+                continue
+            t[k], pk[F, k], out[k], pk[FB, k], side = _narrow(t[k], pk[F, k], out[k],
+                                                             pk[FB, k], pk[SIDE, k], tn, f)
+            pk[SIDE, k] = side
+            if out[k] - t[k] <= tol:
+                out[k] = 0.5 * (t[k] + out[k])
+                continue
+            hits[b] = k
+            b += 1
+        h = b
+    for j in range(h):
+        k = hits[j]
+        out[k] = 0.5 * (t[k] + out[k])
 
 
 @kernel(inline="always")
@@ -222,11 +272,14 @@ def _cone(D, act, m):
 
 
 @kernel
-def trace_packet(code, params, boxes, lips, O, D, n, t, t_end, eps, eps_rel, delta0, out, pk,
-                 ids, pts, vs, tmp, vstack, pstack):
+def trace_packet(code, params, boxes, lips, O, D, n, t, t_end, eps, eps_rel, delta0, out,
+                 refine, pk, ids, pts, vs, tmp, vstack, pstack):
     """Segment tracing of the rays O[k] + t D[k], k < n (unit directions), together, each over
     [t[k], t_end[k]] (none where t[k] > t_end[k]): out[k] is its first hit, or -1 with t[k] where it
-    stopped (t_end[k] if it got there); the field's lowest value, largest rise and where it peaked
+    stopped (t_end[k] if it got there); the hits are located to ``REFINE_TOL`` of their
+    smallest step where ``refine`` (all together at the end, :func:`_refine_packet`), else
+    out[k] is a point past the hit where the field is at least ISO (a shadow ray needs no
+    more); the field's lowest value, largest rise and where it peaked
     go on in ``pk`` (:data:`LOW` ...).  Each ray steps as :func:`trace` does (never less than eps[k]
     + eps_rel t), but one bound serves them all: over the box around every ray's candidate segment
     (value-aware at one of their points where the root is CSG; else a bound on how fast the
@@ -238,10 +291,11 @@ def trace_packet(code, params, boxes, lips, O, D, n, t, t_end, eps, eps_rel, del
     shortest step).  Where the bound is 0, or the bound pass proves the field below ISO all
     over the box, the rays cross their segments in one step (without evaluating the field
     where it is the same all over the box: no support meets it).
-    Scratch: pk (8, n) floats, ids (2, n) ints; pts, vs, tmp as ``eval_rows`` takes them (n at
-    most their columns)."""
+    Scratch: pk (PACKET_ROWS, n) floats, ids (3, n) ints; pts, vs, tmp as ``eval_rows`` takes
+    them (n at most their columns)."""
     values = interp.bounds_use_values(code)
-    act, mov = ids[0], ids[1]
+    act, mov, hits = ids[0], ids[1], ids[2]
+    h = 0
     m = 0
     for k in range(n):
         out[k] = -1.0
@@ -307,10 +361,11 @@ def trace_packet(code, params, boxes, lips, O, D, n, t, t_end, eps, eps_rel, del
                 k = mov[j]
                 fn = vs[0, j] - ISO
                 tn = pk[TN, k]
-                if fn >= 0.0:
-                    out[k] = _refine(code, params, boxes, O[k, 0], O[k, 1], O[k, 2], D[k, 0],
-                                     D[k, 1], D[k, 2], t[k], pk[F, k], tn, fn,
-                                     REFINE_TOL * (eps[k] + eps_rel * t[k]), vstack, pstack)
+                if fn >= 0.0:  # the root lies in [t[k], tn]
+                    out[k], pk[FB, k] = tn, fn
+                    pk[TOL, k] = REFINE_TOL * (eps[k] + eps_rel * t[k])
+                    hits[h] = k
+                    h += 1
                     continue
                 _seen(pk, k, tn, fn)
                 pk[LAST, k] = tn - t[k]
@@ -327,6 +382,9 @@ def trace_packet(code, params, boxes, lips, O, D, n, t, t_end, eps, eps_rel, del
             delta = 0.0
             for j in range(a):
                 delta = max(delta, SEGMENT_GROWTH * (t[act[j]] - pk[TS, act[j]]))
+    if refine:
+        _refine_packet(code, params, boxes, O, D, hits, h, t, out, pk, pts, vs, tmp, vstack,
+                       pstack)
 
 
 @kernel
