@@ -52,8 +52,10 @@ from .specialize import Grid, Regions, cell_of
 #: Points per batch (the length of a value-stack row).
 SUB = 64
 #: Rows are computed in whole groups of W points, so a batch never ends in a scalar remainder
-#: loop (the lanes past the batch hold stale points whose values are ignored).
-W = 32
+#: loop (the lanes past the batch hold stale points whose values are ignored).  Small, so a
+#: packet's last few rays cost few lanes (32 took 3-4% more of a whorl126 render's samples,
+#: with rays below 8 evaluated one by one; the field of 2e6 points the same).
+W = 8
 
 
 @kernel

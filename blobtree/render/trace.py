@@ -44,8 +44,9 @@ CONE_STOP = 0.1
 REFINE_ITERS = 24
 #: Refinement stops once the root is located to this fraction of the smallest step.
 REFINE_TOL = 1e-3
-#: Fewer rays of a packet than this are evaluated one by one, not as a batch.
-PACKET_MIN = 8
+#: Fewer rays of a packet than this are evaluated one by one, not as a batch (of
+#: ``batch.W`` lanes at least).
+PACKET_MIN = 2
 
 
 @kernel
