@@ -9,6 +9,7 @@ import pytest
 
 import blobtree as bt
 from blobtree import fields
+from blobtree.nodes.kmath import power
 
 
 @pytest.mark.parametrize("name", ["soft_object", "cubic"])
@@ -265,3 +266,9 @@ def test_warp_of_an_empty_child_is_empty():
         lo, hi = w.bounds()
         assert np.all(lo > hi)
         assert np.all(w.field(np.zeros((3, 3))) == 0.0)
+
+
+def test_whole_number_powers_match_pow():
+    for n in (0.0, 1.0, 2.0, 30.0, 40.0, 120.0, 400.0, 2.5, 40.25, 1e5):
+        for x in (0.0, 0.3, 0.9, 0.999, 1.0):
+            assert power(x, n) == pytest.approx(x ** n, rel=1e-13, abs=1e-300)

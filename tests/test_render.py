@@ -22,7 +22,7 @@ from blobtree.render import (
     tiles,
 )
 from blobtree.render.camera import default_camera
-from blobtree.render.shade import SRGB_STEPS, _power, default_lights, linear_to_srgb_byte
+from blobtree.render.shade import SRGB_STEPS, default_lights, linear_to_srgb_byte
 from tests.conftest import examples
 from tests.trees import trees
 
@@ -252,12 +252,6 @@ def test_srgb_bytes_round_the_iec_encoding():
     got = np.array([linear_to_srgb_byte(x) for x in c])
     assert np.array_equal(got, encode(c))
     assert set(got) == set(range(256))
-
-
-def test_integer_shininess_powers_match_pow():
-    for n in (0.0, 1.0, 2.0, 30.0, 40.0, 120.0, 2.5, 40.25, 1e5):
-        for x in (0.0, 0.3, 0.9, 0.999, 1.0):
-            assert _power(x, n) == pytest.approx(x ** n, rel=1e-13, abs=1e-300)
 
 
 def test_each_pixel_shows_its_own_blended_albedo():

@@ -26,6 +26,7 @@ from .base import (
     register,
     weighted_color,
 )
+from .kmath import power, root
 from .params import LARGEST_N, Groups, Pairs, Param
 
 
@@ -45,8 +46,8 @@ def group_value(vs, b, p, q, size, n, col):
         return 0.0
     s = 0.0
     for i in range(size):
-        s += (vs[b + int(p[q + i]), col] / m) ** n
-    return m * s ** (1.0 / n)
+        s += power(vs[b + int(p[q + i]), col] / m, n)
+    return m * root(s, n)
 
 
 @kernel

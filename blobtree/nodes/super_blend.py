@@ -9,14 +9,14 @@ import numpy as np
 from ..checks import Number
 from ..jit import kernel
 from .base import BOUND, Node, Operator, OperatorKernels, register, weighted_color
-from .kmath import norm_of
+from .kmath import norm_of, power, root
 from .params import LARGEST_N, Param
 
 
 @kernel(inline="always")
 def _power(r, n, tiny):
     """r^n for r in [0, 1]: 0 below ``tiny`` (``op_params``: there r^n < 1e-304)."""
-    return r ** n if r >= tiny else 0.0
+    return power(r, n) if r >= tiny else 0.0
 
 
 @kernel
@@ -35,9 +35,9 @@ def super_combine(vs, b, k, p, o, mode):
     s = 0.0
     for j in range(b, b + k):
         s += _power(vs[j, 0] / m, n, tiny)
-    f = m * s ** (1.0 / n)
+    f = m * root(s, n)
     if mode > 0:
-        scale = m * s ** ((1.0 - n) / n)
+        scale = m if s == 1.0 else m * s ** ((1.0 - n) / n)
         g0 = g1 = g2 = 0.0
         c0 = c1 = c2 = 0.0
         for j in range(b, b + k):
@@ -84,7 +84,7 @@ def super_rows(vs, b, k, p, o, nb):
             s = 0.0
             for j in range(b, b + k):
                 s += _power(vs[j, m] / top, n, tiny)
-            vs[b, m] = top * s ** (1.0 / n)
+            vs[b, m] = top * root(s, n)
         else:
             vs[b, m] = 0.0
 

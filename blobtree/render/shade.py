@@ -11,6 +11,7 @@ from ..checks import Number
 from ..engine import interp
 from ..engine.specialize import specialize
 from ..jit import kernel
+from ..nodes import kmath
 from .camera import Camera, as_color, as_vec3
 from .trace import LOW, PEAK, RISE, clip_box, trace_packet
 
@@ -176,22 +177,6 @@ NX, NY, NZ, AR, AG, AB, CR, CG, CB, SR, SG, SB = range(12)
 
 
 @kernel(inline="always")
-def _power(x, n):
-    """x ** n, by repeated squaring where n is a whole number below 2^16 (the looks'
-    shininess), else by ``**``."""
-    if n != np.floor(n) or n >= 65536.0:
-        return x ** n
-    k = int(n)
-    r = 1.0
-    while k:
-        if k & 1:
-            r *= x
-        x *= x
-        k >>= 1
-    return r
-
-
-@kernel(inline="always")
 def _surface(code, params, boxes, near, nlo, nhi, px, py, pz, vx, vy, vz, look, surf, k, last,
              vstack, pstack):
     """The outward normal, albedo and ambient-lit colour at surface point p seen along view
@@ -252,7 +237,7 @@ def _add_light(lights, j, look, row, lx, ly, lz, vx, vy, vz, lit):
     if hn > 0.0:
         ndh = (row[NX] * hx + row[NY] * hy + row[NZ] * hz) / hn
         if ndh > 0.0:
-            spec = look[SPECULAR] * _power(ndh, look[SHININESS])
+            spec = look[SPECULAR] * kmath.power(ndh, look[SHININESS])
     for c in range(3):
         row[CR + c] += lit * lights[j, 4 + c] * (row[AR + c] * ndl + spec)
 
