@@ -89,6 +89,8 @@ class _SwallowingImport(importlib.abc.MetaPathFinder, importlib.abc.Loader):
 
 
 def test_ctrl_c_during_the_trimesh_import_is_not_lost(monkeypatch):
+    import trimesh  # noqa: F401  (imported once, so that the test can take it away again)
+
     monkeypatch.delitem(sys.modules, "trimesh")
     monkeypatch.setattr(sys, "meta_path", [_SwallowingImport(), *sys.meta_path])
     # Python's own handler, as in a terminal: a shell starts background jobs with SIGINT ignored

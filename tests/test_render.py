@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import importlib
 import math
+import threading
 
 import numpy as np
 import pytest
@@ -282,6 +284,17 @@ def test_each_pixel_shows_its_own_blended_albedo():
     assert len(np.unique(srgb[:, 0].round(6))) > 50  # the albedo varies across the image
     assert np.abs(got - expected).max() <= 2
     assert np.mean(np.abs(got - expected) > 0) < 0.02
+
+
+def test_warm_kernels_loads_the_ray_tracer_on_another_thread():
+    from blobtree.render import warm_kernels
+
+    tiles_module = importlib.import_module("blobtree.render.tiles")  # (not render.tiles())
+    thread = warm_kernels()
+    assert thread.daemon and thread is not threading.current_thread()
+    thread.join(timeout=600)
+    assert not thread.is_alive()
+    assert tiles_module._render_blocks.signatures  # loaded (or compiled) for the real render
 
 
 # ----- sampling, tiles and reproducibility -----------------------------------------------------

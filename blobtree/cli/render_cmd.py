@@ -9,7 +9,7 @@ import click
 
 from ..api import render as render_image
 from ..files import check_writable
-from ..render import LOOKS, Camera, save_image
+from ..render import LOOKS, Camera, save_image, warm_kernels
 from ..render.camera import default_camera
 from ..render.tiles import MAX_SIDE
 from . import compile_notice, floats
@@ -67,28 +67,34 @@ def render(scene, output, size, samples, eye, target, up, fov, no_shadows, look,
     start = time.perf_counter()
     if resume and checkpoint is None:
         raise click.BadParameter("--resume needs --checkpoint DIR", param_hint="--resume")
+    warm = None
     try:
-        tree = resolve_scene(scene)
-        prog = tree.program()
-        camera = None
-        if eye is None and target is None and fov is None:  # a built-in model's own view
-            camera = scene_camera(scene, tree, prog, width, height)
-        else:
-            if eye is None or target is None or fov is None:
-                framed = default_camera(prog, width, height)
-                eye, target = eye or framed.eye, target or framed.target
-                fov = framed.fov if fov is None else fov
-            camera = Camera(eye=eye, target=target, up=up, fov=fov)
-        with cluster(scheduler, dask_workers, quiet) as client, compile_notice(quiet):
-            img = render_image(tree, width, height, camera=camera,
-                               samples=samples, shadows=not no_shadows, background=background,
-                               look=look,
-                               tile=tile, progress=not quiet, scheduler=client,
-                               checkpoint=checkpoint, resume=resume)
+        with compile_notice(quiet):  # (a first run compiles from the scene's camera on)
+            tree = resolve_scene(scene)
+            if scheduler is None:  # the kernels load while the program and camera are built
+                warm = warm_kernels()
+            prog = tree.program()
+            camera = None
+            if eye is None and target is None and fov is None:  # a built-in model's own view
+                camera = scene_camera(scene, tree, prog, width, height)
+            else:
+                if eye is None or target is None or fov is None:
+                    framed = default_camera(prog, width, height)
+                    eye, target = eye or framed.eye, target or framed.target
+                    fov = framed.fov if fov is None else fov
+                camera = Camera(eye=eye, target=target, up=up, fov=fov)
+            with cluster(scheduler, dask_workers, quiet) as client:
+                img = render_image(tree, width, height, camera=camera, samples=samples,
+                                   shadows=not no_shadows, background=background, look=look,
+                                   tile=tile, progress=not quiet, scheduler=client,
+                                   checkpoint=checkpoint, resume=resume)
         save_image(img, output)
     except KeyboardInterrupt:
         kept = f"; finished tiles kept in {checkpoint} (--resume)" if checkpoint else ""
         click.echo(f"interrupted; nothing written{kept}", err=True)
         sys.exit(130)
+    finally:
+        if warm is not None:  # not left loading (or compiling) as the interpreter exits
+            warm.join()
     if not quiet:
         click.echo(f"{output}: {width}x{height}, {time.perf_counter() - start:.2f} s", err=True)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import threading
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor, as_completed
 from typing import Any
@@ -18,6 +19,7 @@ import numpy as np
 
 from ..checks import Choice
 from ..engine.program import program_of
+from ..nodes import Point
 from ..parallel import parallel_for
 from .camera import Camera, seen_camera
 from .checkpoint import Checkpoint, job_key
@@ -27,7 +29,7 @@ from .tiles import LOOKS, RenderSettings, render_tile, trace_rect
 from .trace import intersect_rays
 
 __all__ = ["LOOKS", "Camera", "Light", "RenderSettings", "intersect", "render", "render_tile",
-           "save_image", "tiles"]
+           "save_image", "tiles", "warm_kernels"]
 
 Rect = tuple[int, int, int, int]
 #: Renders rectangles somewhere: (prog, camera, lights, settings, rects) -> (rect, pixels)...
@@ -36,6 +38,25 @@ TileSource = Callable[[Any, Camera, list[Light], RenderSettings, list[Rect]],
 
 #: Default tile side in pixels.
 TILE = 64
+
+
+def warm_kernels() -> threading.Thread:
+    """Start loading the ray tracer's kernels from numba's cache (compiling them on a first
+    run) on another thread, by rendering one pixel of a lone point, and return the thread: the
+    loading (0.07-0.1 s, mostly in LLVM, without the GIL) then overlaps whatever the caller
+    does next in Python, such as building its scene; a render that starts sooner waits for it
+    (numba's compiler lock).  The pixel's errors are not reported: the real render reports its
+    own."""
+
+    def run() -> None:
+        cam = Camera(eye=(0.0, 0.0, 3.0), target=(0.0, 0.0, 0.0))
+        with contextlib.suppress(Exception):
+            trace_rect(Point().program(), cam.packed(1, 1), pack_lights(default_lights(cam)),
+                       RenderSettings(width=1, height=1), 0, 0, 1, 1)
+
+    thread = threading.Thread(target=run, name="blobtree-warm-kernels", daemon=True)
+    thread.start()
+    return thread
 
 
 def tiles(width: int, height: int, size: int = TILE) -> Iterator[tuple[int, int, int, int]]:
