@@ -1,0 +1,103 @@
+"""Where a render's time goes, kernel by kernel: Linux ``perf`` samples of the render alone, with
+numba's compiled functions named (perf cannot name JIT code by itself).
+
+The kernels are compiled afresh into a temporary numba cache (a minute or two), since only
+freshly compiled code still carries its functions' names; their addresses go to the
+``/tmp/perf-PID.map`` file perf reads.  Then ``perf record`` samples this process while it
+renders, and the top functions are printed (a function's share includes what LLVM inlined into
+it).  Needs ``perf`` (Debian package ``linux-perf``).
+
+    python bench/perf_kernels.py [--model murex] [--size 512] [--no-shadows] [--look studio]
+                                 [--top 25]
+"""
+
+from __future__ import annotations
+
+import argparse
+import gc
+import os
+import re
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+
+os.environ["NUMBA_CACHE_DIR"] = tempfile.mkdtemp(prefix="blobtree-perf-")  # before numba loads
+
+from blobtree.cli.scenes import resolve_scene  # noqa: E402
+from blobtree.render import LOOKS, render  # noqa: E402
+
+
+def _short(name: str) -> str:
+    """module.function from a mangled name such as _ZN8blobtree6engine8dispatch9prim_rowsB4v..."""
+    parts, i = [], name.find("_ZN") + 3 if "_ZN" in name else len(name)
+    while i < len(name) and name[i].isdigit():
+        digits = re.match(r"\d+", name[i:]).group()
+        i += len(digits)
+        parts.append(name[i:i + int(digits)])
+        i += int(digits)
+    return ".".join(parts[-2:]) if parts else name[:60]
+
+
+def write_perf_map() -> int:
+    """Write the address and name of every compiled function of every numba dispatcher in this
+    process to /tmp/perf-PID.map (each function's size taken up to the next one); return how
+    many."""
+    from numba.core.registry import CPUDispatcher
+
+    libraries = {id(c.library): c.library for obj in gc.get_objects()
+                 if isinstance(obj, CPUDispatcher) for c in obj.overloads.values()}
+    names = {}
+    for lib in libraries.values():
+        for fn in lib._final_module.functions:  # (freshly compiled code only)
+            if not fn.is_declaration:
+                address = lib.get_pointer_to_function(fn.name)
+                if address:
+                    names[address] = _short(fn.name)
+    addresses = sorted(names)
+    with open(f"/tmp/perf-{os.getpid()}.map", "w") as f:
+        for a, b in zip(addresses, addresses[1:] + [addresses[-1] + 4096], strict=True):
+            f.write(f"{a:x} {min(b - a, 1 << 20):x} {names[a]}\n")
+    return len(addresses)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--model", default="murex")
+    ap.add_argument("--size", type=int, default=512)
+    ap.add_argument("--look", default="studio", choices=sorted(LOOKS))
+    ap.add_argument("--no-shadows", action="store_true")
+    ap.add_argument("--top", type=int, default=25)
+    args = ap.parse_args()
+    perf = shutil.which("perf")
+    if perf is None:
+        sys.exit("perf not found: install the Debian package linux-perf")
+    tree = resolve_scene(args.model)
+    options = dict(shadows=not args.no_shadows, look=args.look, progress=False)
+    t0 = time.perf_counter()
+    render(tree, 32, 32, **options)
+    print(f"compiled in {time.perf_counter() - t0:.0f} s; {write_perf_map()} functions mapped")
+    data = os.path.join(tempfile.mkdtemp(prefix="blobtree-perf-"), "perf.data")
+    rec = subprocess.Popen([perf, "record", "-q", "-F", "2000", "-p", str(os.getpid()), "-o",
+                            data], stderr=subprocess.DEVNULL)
+    time.sleep(0.5)  # (perf attaches)
+    t0 = time.perf_counter()
+    render(tree, args.size, args.size, **options)
+    seconds = time.perf_counter() - t0
+    rec.send_signal(signal.SIGINT)
+    rec.wait()
+    report = subprocess.run([perf, "report", "-i", data, "--sort", "symbol", "--stdio", "-q"],
+                            capture_output=True, text=True).stdout
+    print(f"{args.model} {args.size}x{args.size}, {args.look}, shadows "
+          f"{'off' if args.no_shadows else 'on'}: {seconds:.2f} s; share of the samples:")
+    for line in report.splitlines()[:args.top]:
+        m = re.match(r"\s*([\d.]+%)\s+\[(.)\]\s+(.*?)[\s-]*$", line)
+        if m:
+            share, where, name = m.groups()
+            print(f"  {share:>7}  {name[:70]}{' (kernel)' if where == 'k' else ''}")
+
+
+if __name__ == "__main__":
+    main()
