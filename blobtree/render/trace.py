@@ -277,21 +277,20 @@ def trace_packet(code, params, boxes, lips, O, D, n, t, t_end, eps, eps_rel, del
                  refine, pk, ids, pts, vs, tmp, vstack, pstack):
     """Segment tracing of the rays O[k] + t D[k], k < n (unit directions), together, each over
     [t[k], t_end[k]] (none where t[k] > t_end[k]): out[k] is its first hit, or -1 with t[k] where it
-    stopped (t_end[k] if it got there); the hits are located to ``REFINE_TOL`` of their
-    smallest step where ``refine`` (all together at the end, :func:`_refine_packet`), else
-    out[k] is a point past the hit where the field is at least ISO (a shadow ray needs no
-    more); the field's lowest value, largest rise and where it peaked
-    go on in ``pk`` (:data:`LOW` ...).  Each ray steps as :func:`trace` does (never less than eps[k]
-    + eps_rel t), but one bound serves them all: over the box around every ray's candidate segment
-    (value-aware at one of their points where the root is CSG; else a bound on how fast the
-    field rises along the cone of their directions, which leaves out the primitives they all
-    move away from), and each step evaluates the new points of all the rays in one batch
-    (``batch.eval_rows``: SIMD over rays).  A segment ends for
-    all once every ray has crossed it (the next is ``SEGMENT_GROWTH`` times the longest crossing),
-    or once some ray's steps are short next to what is left of it (the next is ``GROWTH`` times the
-    shortest step).  Where the bound is 0, or the bound pass proves the field below ISO all
-    over the box, the rays cross their segments in one step (without evaluating the field
-    where it is the same all over the box: no support meets it).
+    stopped (t_end[k] if it got there); the hits are located to ``REFINE_TOL`` of their smallest
+    step where ``refine`` (all together at the end, :func:`_refine_packet`), else out[k] is a point
+    past the hit where the field is at least ISO (a shadow ray needs no more; t[k] of a ray that hit
+    is left anywhere before its hit); the field's lowest value, largest rise and where it peaked go
+    on in ``pk`` (:data:`LOW` ...).  Each ray steps as :func:`trace` does (never less than eps[k] +
+    eps_rel t), but one bound serves them all: over the box around every ray's candidate segment
+    (value-aware at one of their points where the root is CSG; else a bound on how fast the field
+    rises along the cone of their directions, which leaves out the primitives they all move away
+    from), and each step evaluates the new points of all the rays in one batch (``batch.eval_rows``:
+    SIMD over rays).  A segment ends for all once every ray has crossed it (the next is
+    ``SEGMENT_GROWTH`` times the longest crossing), or once some ray's steps are short next to what
+    is left of it (the next is ``GROWTH`` times the shortest step).  Where the bound is 0, or the
+    bound pass proves the field below ISO all over the box, the rays cross their segments in one
+    step (without evaluating the field where it is the same all over the box: no support meets it).
     Scratch: pk (PACKET_ROWS, n) floats, ids (3, n) ints; pts, vs, tmp as ``eval_rows`` takes
     them (n at most their columns)."""
     values = interp.bounds_use_values(code)
