@@ -93,6 +93,13 @@ def _narrow(ta, fa, tb, fb, side, t, f):
 
 
 @kernel(inline="always")
+def _located(ta, fa, tb, fb, f, tol):
+    """Whether f - ISO = f at the estimate puts the root within tol of it, by the secant's
+    slope over the bracket (ta, fa, tb, fb)."""
+    return abs(f) * (tb - ta) <= tol * (fb - fa)
+
+
+@kernel(inline="always")
 def _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, ta, fa, tb, fb, tol, vstack, pstack):
     """Root of f - ISO in [ta, tb] with fa < 0 <= fb (Illinois regula falsi), stopping once
     the secant slope puts the root within tol of the estimate."""
@@ -101,7 +108,7 @@ def _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, ta, fa, tb, fb, tol, vs
         t = _estimate(ta, fa, tb, fb)
         f = interp.eval_point(code, params, boxes, ox + t * dx, oy + t * dy, oz + t * dz, 0,
                                vstack, pstack) - ISO
-        if abs(f) * (tb - ta) <= tol * (fb - fa):
+        if _located(ta, fa, tb, fb, f, tol):
             return t
         ta, fa, tb, fb, side = _narrow(ta, fa, tb, fb, side, t, f)
         if tb - ta <= tol:
@@ -172,7 +179,7 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
 #: past the root, the end of the bracket moved last, and the tolerance.
 F, TN, LAST, TS, TE, LOW, RISE, PEAK, FB, SIDE, TOL = range(11)
 #: Rows of :func:`trace_packet`'s scratch ``pk``.
-PACKET_ROWS = 11
+PACKET_ROWS = TOL + 1
 
 
 @kernel(inline="always")
@@ -214,7 +221,7 @@ def _refine_packet(code, params, boxes, O, D, hits, h, t, out, pk, pts, vs, tmp,
         for j in range(h):
             k = hits[j]
             tn, f, tol = pk[TN, k], vs[0, j] - ISO, pk[TOL, k]
-            if abs(f) * (out[k] - t[k]) <= tol * (pk[FB, k] - pk[F, k]):
+            if _located(t[k], pk[F, k], out[k], pk[FB, k], f, tol):
                 out[k] = tn
                 continue
             t[k], pk[F, k], out[k], pk[FB, k], side = _narrow(t[k], pk[F, k], out[k],
