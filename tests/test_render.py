@@ -286,6 +286,49 @@ def test_each_pixel_shows_its_own_blended_albedo():
     assert np.mean(np.abs(got - expected) > 0) < 0.02
 
 
+def test_ambient_occlusion_follows_the_field_along_each_normal():
+    # Ambient light only, with occlusion: each pixel is its albedo times 1 - occlusion, the
+    # occlusion from the field sampled along the normal (shade._occlusions, in batches on the
+    # packet's program or the full one) against its formula on the engine's field.
+    tree = (bt.Point(radius=1.6).translate(-0.7, 0, 0)
+            + bt.Point(radius=1.6).translate(0.7, 0.3, -0.4)
+            + bt.Point(radius=1.2).translate(0.0, -0.9, 0.6)).color((0.7, 0.6, 0.5))
+    cam = Camera(eye=(0.0, 0.0, 6.0), target=(0.0, 0.0, 0.0), fov=40.0)
+    n, strength, radius = 40, 0.9, 0.08
+    img = render(tree, n, n, camera=cam, lights=[], background=BLACK, ambient=1.0, sky=0.0,
+                 occlusion=strength, occlusion_radius=radius, shadows=False).astype(int)
+    half = np.tan(np.radians(20.0))
+    u = (2 * (np.arange(n) + 0.5) / n - 1) * half
+    d = np.stack([np.tile(u, n), -np.repeat(u, n), -np.ones(n * n)], axis=1)
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    o = np.tile([0.0, 0.0, 6.0], (n * n, 1))
+    t = intersect(tree, o, d)
+    hit = t >= 0
+    p = o[hit] + t[hit, None] * d[hit]
+    prog = tree.program()
+    lo, hi = prog.bounds
+    reach = radius * np.linalg.norm(np.asarray(hi) - np.asarray(lo))
+    g = prog.gradient(p)
+    slope = np.linalg.norm(g, axis=1)
+    normal = -g / slope[:, None]
+    k = np.arange(1, 5)
+    dist = reach * k / 4
+    f = prog.field((p[:, None, :] + dist[None, :, None] * normal[:, None, :]).reshape(-1, 3))
+    excess = f.reshape(-1, 4) - np.maximum(0.5 - slope[:, None] * dist, 0.0)
+    occ = (np.clip(excess / 0.5, 0.0, 1.0) / k).sum(axis=1) / (1.0 / k).sum()
+    srgb = prog.albedo(p)
+    lin = (np.where(srgb <= 0.04045, srgb / 12.92, ((srgb + 0.055) / 1.055) ** 2.4)
+           * (1.0 - strength * occ)[:, None])
+    expected = np.round(255 * np.where(lin <= 0.0031308, 12.92 * lin,
+                                       1.055 * lin ** (1 / 2.4) - 0.055))
+    got = img.reshape(-1, 3)[hit]
+    shown = got.max(axis=1) > 0  # (a grazing ray at the silhouette may miss on either side)
+    assert np.mean(~shown) < 0.01 and np.all(img.reshape(-1, 3)[~hit] == 0)
+    assert np.mean(occ[shown] > 0.05) > 0.05  # the creases are occluded
+    assert np.abs(got - expected)[shown].max() <= 2
+    assert np.mean(np.abs(got - expected)[shown] > 0) < 0.02
+
+
 def test_warm_kernels_loads_the_ray_tracer_on_another_thread():
     from blobtree.render import warm_kernels
 

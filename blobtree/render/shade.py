@@ -9,6 +9,7 @@ import numpy as np
 
 from ..checks import Number
 from ..engine import interp
+from ..engine.batch import eval_rows, eval_rows_full
 from ..engine.specialize import specialize
 from ..jit import kernel
 from ..nodes import kmath
@@ -111,30 +112,54 @@ OCCLUSION_SAMPLES = 4
 
 
 @kernel(inline="always")
-def _field_at(code, params, boxes, local, llo, lhi, x, y, z, vstack, pstack):
-    """The field at (x, y, z): on the local program inside its box, on the full one outside."""
-    if llo[0] <= x <= lhi[0] and llo[1] <= y <= lhi[1] and llo[2] <= z <= lhi[2]:
-        return interp.eval_point(local[0], params, local[1], x, y, z, 0, vstack, pstack)
-    return interp.eval_point(code, params, boxes, x, y, z, 0, vstack, pstack)
-
-
-@kernel(inline="always")
-def occlusion(code, params, boxes, local, llo, lhi, px, py, pz, nx, ny, nz, slope, radius,
-              vstack, pstack):
-    """Ambient occlusion in [0, 1] at surface point p with outward normal n, from the field
-    alone: a lone surface falls off along its normal as 0.5 - slope * d (slope = |grad f| at p),
-    so whatever the samples at d = radius * k / OCCLUSION_SAMPLES exceed that by is other
-    surface nearby (a crease, the inside of the aperture); nearer samples weigh more."""
-    occ = 0.0
-    total = 0.0
-    for k in range(1, OCCLUSION_SAMPLES + 1):
-        d = radius * k / OCCLUSION_SAMPLES
-        f = _field_at(code, params, boxes, local, llo, lhi, px + d * nx, py + d * ny,
-                      pz + d * nz, vstack, pstack)
-        weight = 1.0 / k
-        occ += weight * min(max(f - max(0.5 - slope * d, 0.0), 0.0) / 0.5, 1.0)
-        total += weight
-    return occ / total
+def _occlusions(code, params, boxes, local, llo, lhi, n, rays, O, D, look, surf, hits, pts, vs,
+                tmp):
+    """Ambient occlusion in [0, 1] at every hit of the packet, into column OCC of the surface
+    table, from the field alone: a lone surface falls off along its normal as 0.5 - slope * d
+    (slope = |grad f| at the hit), so whatever the samples at d = radius * k /
+    OCCLUSION_SAMPLES exceed that by is other surface nearby (a crease, the inside of the
+    aperture); nearer samples weigh more.  The samples in the local program's box [llo, lhi]
+    are evaluated on it, the rest on the full program, a batch at a time
+    (``batch.eval_rows``)."""
+    which, _, _, _, values = hits
+    radius = look[OCCLUSION_RADIUS]
+    ns = OCCLUSION_SAMPLES
+    batch = pts.shape[2]
+    for in_local in (True, False):
+        prog = (code, boxes)
+        if in_local:
+            prog = (local[0], local[1])
+        m = 0
+        for q in range(n * ns + 1):
+            if q < n * ns and rays[HIT, q // ns] >= 0.0:
+                k, kk = q // ns, q % ns + 1
+                t = rays[HIT, k]
+                d = radius * kk / ns
+                x = O[k, 0] + t * D[k, 0] + d * surf[k, NX]
+                y = O[k, 1] + t * D[k, 1] + d * surf[k, NY]
+                z = O[k, 2] + t * D[k, 2] + d * surf[k, NZ]
+                if (llo[0] <= x <= lhi[0] and llo[1] <= y <= lhi[1]
+                        and llo[2] <= z <= lhi[2]) == in_local:
+                    which[m] = q
+                    pts[0, 0, m], pts[0, 1, m], pts[0, 2, m] = x, y, z
+                    m += 1
+            if m == batch or (q == n * ns and m > 0):
+                eval_rows(prog[0], params, prog[1], 0, prog[0].shape[0], pts, m, vs, tmp)
+                for j in range(m):
+                    values[which[j] // ns, which[j] % ns] = vs[0, j]
+                m = 0
+    for k in range(n):
+        if rays[HIT, k] < 0.0:
+            continue
+        occ = 0.0
+        total = 0.0
+        for kk in range(1, ns + 1):
+            d = radius * kk / ns
+            weight = 1.0 / kk
+            occ += weight * min(max(values[k, kk - 1] - max(0.5 - surf[k, SLOPE] * d, 0.0),
+                                    0.0) / 0.5, 1.0)
+            total += weight
+        surf[k, OCC] = occ / total
 
 
 @kernel(inline="always")
@@ -171,25 +196,26 @@ T, T_END, T1, T0, EPS, OUT, SPLIT, HIT, INSIDE, REACHED = range(10)
 #: their fields, so one colour blended with itself comes back a few ulps off; the decoded
 #: values then differ by less than 1e-12, against 8-bit steps of about 1/255).
 ALBEDO_SAME = 1e-13
-#: Columns of a packet's surface table: a hit's outward unit normal, linear albedo, colour, and
-#: its albedo as the field gave it (sRGB, clamped to [0, 1]).
-NX, NY, NZ, AR, AG, AB, CR, CG, CB, SR, SG, SB = range(12)
+#: Columns of a packet's surface table: a hit's outward unit normal, linear albedo, colour, its
+#: albedo as the field gave it (sRGB, clamped to [0, 1]), |grad f| there and its ambient
+#: occlusion.
+NX, NY, NZ, AR, AG, AB, CR, CG, CB, SR, SG, SB, SLOPE, OCC = range(14)
 
 
 @kernel(inline="always")
 def _surface(code, params, boxes, near, nlo, nhi, px, py, pz, vx, vy, vz, look, surf, k, last,
-             vstack, pstack):
+             ev, vstack, pstack):
     """The outward normal, albedo and ambient-lit colour at surface point p seen along view
     direction v (unit, toward the surface), into row k of the surface table ``surf`` (columns
-    :data:`NX` ...); the linear albedo is row ``last``'s (the last hit's, -1: none) where the
+    :data:`NX` ...), from ``ev``: the field, gradient and colour there (``interp.eval_point``'s
+    mode 2 row); the linear albedo is row ``last``'s (the last hit's, -1: none) where the
     field gives the same colour (within :data:`ALBEDO_SAME`).  ``near`` is the program
     specialised to the box [nlo, nhi] around p (or the full program and its bounds).
     ``look``: the ambient light, brighter from above by ``SKY`` and darkened by the field's
     :func:`occlusion`."""
     row = surf[k]
-    interp.eval_point(near[0], params, near[1], px, py, pz, 2, vstack, pstack)
     # The field decreases outward, so the outward normal is -grad f.
-    nx, ny, nz = -vstack[0, 1], -vstack[0, 2], -vstack[0, 3]
+    nx, ny, nz = -ev[1], -ev[2], -ev[3]
     nn = np.sqrt(nx * nx + ny * ny + nz * nz)
     if nn > 0.0:
         nx, ny, nz = nx / nn, ny / nn, nz / nn
@@ -197,20 +223,57 @@ def _surface(code, params, boxes, near, nlo, nhi, px, py, pz, vx, vy, vz, look, 
         nx, ny, nz = -vx, -vy, -vz
     row[NX], row[NY], row[NZ] = nx, ny, nz
     for c in range(3):
-        row[SR + c] = min(max(vstack[0, 4 + c], 0.0), 1.0)
+        row[SR + c] = min(max(ev[4 + c], 0.0), 1.0)
     prev = surf[max(last, 0)]
     same = last >= 0 and (abs(row[SR] - prev[SR]) <= ALBEDO_SAME
                           and abs(row[SG] - prev[SG]) <= ALBEDO_SAME
                           and abs(row[SB] - prev[SB]) <= ALBEDO_SAME)
     for c in range(3):
         row[AR + c] = prev[AR + c] if same else srgb_to_linear(row[SR + c])
-    ambient = look[AMBIENT] * (1.0 - look[SKY] * 0.5 * (1.0 - ny))
+    row[SLOPE] = nn
+    _ambient(look, row)
+
+
+@kernel(inline="always")
+def _ambient(look, row):
+    """The ambient-lit colour of a surface table row: brighter from above by ``SKY``, darkened
+    by the row's occlusion OCC (where the look has any)."""
+    ambient = look[AMBIENT] * (1.0 - look[SKY] * 0.5 * (1.0 - row[NY]))
     if look[OCCLUSION] > 0.0:
-        ambient *= 1.0 - look[OCCLUSION] * occlusion(
-            code, params, boxes, near, nlo, nhi, px, py, pz, nx, ny, nz, nn,
-            look[OCCLUSION_RADIUS], vstack, pstack)
+        ambient *= 1.0 - look[OCCLUSION] * row[OCC]
     for c in range(3):
         row[CR + c] = ambient * row[AR + c]
+
+
+@kernel(inline="always")
+def _surfaces(code, params, boxes, near, nlo, nhi, n, inside, rays, O, D, look, surf, last,
+              hits, vstack, pstack):
+    """:func:`_surface` of the packet's hits whose INSIDE is ``inside``, their fields,
+    gradients and colours evaluated a batch at a time on ``near`` (``batch.eval_rows_full``:
+    one dispatch per instruction serves the batch); ``hits`` = (ray index, point, stacks,
+    frames) of ``tiles._packet_scratch``.  Returns the last hit shaded (``last`` if none)."""
+    which, points, stacks, frames, _ = hits
+    m = 0
+    for k in range(n + 1):
+        if k < n and rays[HIT, k] >= 0.0 and rays[INSIDE, k] == inside:
+            t = rays[HIT, k]
+            which[m] = k
+            for r in range(3):
+                points[m, r] = O[k, r] + t * D[k, r]
+            m += 1
+        if m == points.shape[0] or (k == n and m > 0):
+            eval_rows_full(near[0], params, near[1], 0, near[0].shape[0], points, m, stacks,
+                           frames)
+            for j in range(m):
+                kk = which[j]
+                t = rays[HIT, kk]
+                _surface(code, params, boxes, near, nlo, nhi, O[kk, 0] + t * D[kk, 0],
+                         O[kk, 1] + t * D[kk, 1], O[kk, 2] + t * D[kk, 2], D[kk, 0],
+                         D[kk, 1], D[kk, 2], look, surf, kk, last, stacks[j, 0], vstack,
+                         pstack)
+                last = kk
+            m = 0
+    return last
 
 
 @kernel(inline="always")
@@ -260,7 +323,7 @@ def _trace_stretches(code, params, boxes, lips, n, delta0, packet, vstack, pstac
     T_END is 0 takes no part) on the full program, first candidate segment delta0: a long
     program (:data:`STRETCH_MIN`) is specialised to the box around the rays' next stretch, the
     first ``STRETCH`` delta0 long, each next twice as long.  Rays found in shadow get REACHED 0."""
-    _, rays, _, _, SO, SD, _, pk, ids, pts, vs, tmp, spec = packet
+    _, rays, _, _, SO, SD, _, pk, ids, pts, vs, tmp, spec, _ = packet
     oc, ob, ol, work, lo, hi = spec
     stretch = STRETCH * delta0 if code.shape[0] >= STRETCH_MIN else np.inf
     while True:
@@ -305,20 +368,22 @@ def shade_packet(code, params, boxes, lips, local, llo, lhi, n, lights, lo, hi, 
     normal (so they cannot re-hit it) and are traced together (:func:`trace_packet`; a long
     program is specialised to each stretch of them, :func:`_trace_stretches`); those that miss
     still darken by :func:`penumbra`."""
-    _, rays, O, D, SO, SD, surf, pk, ids, pts, vs, tmp, _ = packet
+    _, rays, O, D, SO, SD, surf, pk, ids, pts, vs, tmp, _, hits = packet
     # a long program's shadow rays take programs of their own from the start (STRETCH_MIN)
     own = code.shape[0] >= STRETCH_MIN
     last = -1
-    for k in range(n):
-        t = rays[HIT, k]
-        if t >= 0.0:
-            near, nlo, nhi = local, llo, lhi
-            if rays[INSIDE, k] == 0.0:
-                near, nlo, nhi = (code, boxes, lips), lo, hi
-            _surface(code, params, boxes, near, nlo, nhi, O[k, 0] + t * D[k, 0],
-                     O[k, 1] + t * D[k, 1], O[k, 2] + t * D[k, 2], D[k, 0], D[k, 1], D[k, 2],
-                     look, surf, k, last, vstack, pstack)
-            last = k
+    for inside in (1.0, 0.0):  # the hits of the local program, then those of the full one
+        near, nlo, nhi = local, llo, lhi
+        if inside == 0.0:
+            near, nlo, nhi = (code, boxes, lips), lo, hi
+        last = _surfaces(code, params, boxes, near, nlo, nhi, n, inside, rays, O, D, look,
+                         surf, last, hits, vstack, pstack)
+    if look[OCCLUSION] > 0.0:
+        _occlusions(code, params, boxes, local, llo, lhi, n, rays, O, D, look, surf, hits, pts,
+                    vs, tmp)
+        for k in range(n):
+            if rays[HIT, k] >= 0.0:
+                _ambient(look, surf[k])
     for j in range(lights.shape[0]):
         d_local = d_full = np.inf  # the first candidate segments of the two stretches
         for k in range(n):

@@ -28,10 +28,11 @@ from .shade import (
     HIT,
     INSIDE,
     LIGHT_TAN,
+    OCC,
     OCCLUSION,
     OCCLUSION_RADIUS,
+    OCCLUSION_SAMPLES,
     OUT,
-    SB,
     SHININESS,
     SKY,
     SPECULAR,
@@ -205,13 +206,17 @@ def _packet_scratch(depth: int, ncode: int, work: np.ndarray) -> tuple:
     ray table (``shade.T`` ...); the camera rays' origins and directions, the shadow rays'
     (n, 3 each); the surface table (``shade.NX`` ...); :func:`trace_packet`'s; and room for a
     program of up to ``ncode`` instructions specialised to a box, ``specialize``'s ``work`` and
-    the box."""
+    the box; the hits shaded together (``shade._surfaces``: their rays, points and
+    ``batch.eval_rows_full``'s stacks)."""
     n = SUB * SUB
     return (np.empty((n, 4)), np.empty((10, n)), np.empty((n, 3)), np.empty((n, 3)),
-            np.empty((n, 3)), np.empty((n, 3)), np.empty((n, SB + 1)),
+            np.empty((n, 3)), np.empty((n, 3)), np.empty((n, OCC + 1)),
             np.empty((PACKET_ROWS, n)), np.empty((3, n), dtype=np.int64),
             np.zeros((depth + 1, 3, BATCH)), np.empty((depth, BATCH)), np.empty((depth, 7)),
-            (*_program_buffers(ncode), work, np.empty(3), np.empty(3)))
+            (*_program_buffers(ncode), work, np.empty(3), np.empty(3)),
+            (np.empty(BATCH, dtype=np.int64), np.empty((BATCH, 3)),
+             np.empty((BATCH, depth, COLUMNS)), np.empty((BATCH, depth, 30)),
+             np.empty((n, OCCLUSION_SAMPLES))))
 
 
 @kernel
@@ -278,7 +283,7 @@ def _sub_block(code, params, boxes, lips, local, llo, lhi, cam, lights, lo, hi, 
     ``seg0``, then on the full program; and shaded together (:func:`shade_packet`).  All the
     cone's pixels are traced and shaded, whatever part of them a tile wants, so no pixel
     depends on the tiling.  ``packet``: the scratch ``trace_rect`` allocates."""
-    acc, rays, O, D, _, _, surf, pk, ids, pts, vs, tmp, _ = packet
+    acc, rays, O, D, _, _, surf, pk, ids, pts, vs, tmp, _, _ = packet
     nx = sx1 - sx0
     n = nx * (sy1 - sy0)
     m = int(np.ceil(np.sqrt(samples)))
