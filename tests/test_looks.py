@@ -63,20 +63,30 @@ def test_backdrop_fades_from_top_to_bottom_and_background_makes_it_plain():
 
 
 def _occlusion_at(tree, points: np.ndarray, radius: float) -> np.ndarray:
-    """The shading kernel's ambient occlusion at surface points of ``tree``."""
-    from blobtree.engine.interp import scratch
-    from blobtree.render.shade import occlusion
+    """The shading kernel's ambient occlusion (``shade._occlusions``) at surface points of
+    ``tree``, each the hit of a ray straight down onto it."""
+    from blobtree.engine.batch import SUB, point_rows, value_rows
+    from blobtree.render import shade
 
     prog = tree.program()
     code, params, boxes, lips = prog.arrays
     lo, hi = (np.asarray(b, dtype=float) for b in prog.bounds)
+    n = len(points)
     g = prog.gradient(points)
-    out = []
-    for p, grad in zip(points, g, strict=True):
-        n = -grad / np.linalg.norm(grad)
-        out.append(occlusion(code, params, boxes, (code, boxes, lips), lo, hi, *p, *n,
-                             float(np.linalg.norm(grad)), radius, *scratch(prog.depth)))
-    return np.array(out)
+    rays = np.full((10, n), -1.0)
+    rays[shade.HIT] = 1.0
+    D = np.tile([0.0, -1.0, 0.0], (n, 1))
+    surf = np.zeros((n, shade.OCC + 1))
+    surf[:, shade.SLOPE] = np.linalg.norm(g, axis=1)
+    surf[:, [shade.NX, shade.NY, shade.NZ]] = -g / surf[:, shade.SLOPE, None]
+    look = np.zeros(7)
+    look[shade.OCCLUSION_RADIUS] = radius
+    hits = (np.empty(SUB, dtype=np.int64), np.empty((SUB, 3)), np.empty((SUB, 1, 1)),
+            np.empty((SUB, 1, 1)), np.empty((n, shade.OCCLUSION_SAMPLES)))
+    shade._occlusions(code, params, boxes, (code, boxes, lips), lo, hi, n, rays, points - D, D,
+                      look, surf, hits, point_rows(prog.depth), value_rows(prog.depth),
+                      np.empty((prog.depth, 7)))
+    return surf[:, shade.OCC]
 
 
 def _surface_below(tree, xz: np.ndarray) -> np.ndarray:

@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..jit import kernel
-from ..nodes.base import FALLOFF
+from ..nodes.base import FALLOFF, ROWS_SCRATCH
 from ..parallel import parallel_for, threads
 from .dispatch import (
     K_BOX,
@@ -51,6 +51,10 @@ from .specialize import Grid, Regions, cell_of
 
 #: Points per batch (the length of a value-stack row).
 SUB = 64
+#: Lanes of a point level (``point_rows``) past the batch's points: at level 0, the least and
+#: greatest of each coordinate over them, so that a box test can often answer for the whole
+#: batch at once.
+LOWEST, HIGHEST = SUB, SUB + 1
 #: Rows are computed in whole groups of W points, so a batch never ends in a scalar remainder
 #: loop (the lanes past the batch hold stale points whose values are ignored).  Small, so a
 #: packet's last few rays cost few lanes (32 took 3-4% more of a whorl126 render's samples,
@@ -58,8 +62,38 @@ SUB = 64
 W = 8
 
 
+@kernel(inline="always")
+def _span(pts, nb):
+    """Lanes LOWEST and HIGHEST of the batch's points (level 0 of pts): each coordinate's least
+    and greatest over the nb points (-inf and inf where one is NaN: a NaN point is inside every
+    box, as for ``interp.outside``)."""
+    for r in range(3):
+        lo, hi = np.inf, -np.inf
+        nan = False
+        for k in range(nb):
+            v = pts[0, r, k]
+            lo = min(lo, v)
+            hi = max(hi, v)
+            nan |= v != v
+        pts[0, r, LOWEST], pts[0, r, HIGHEST] = (-np.inf, np.inf) if nan else (lo, hi)
+
+
 @kernel
 def _any_inside(boxes, i, pts, pp, nb):
+    """Is any of the batch's points (at point level pp) inside instruction i's box?  At level
+    0, decided from the batch's span (:func:`_span`) where the box misses it or holds it whole
+    (boxes of the full program far from the batch, mostly; the frames below, whose boxes a
+    specialised program has mostly kept for their overlap, are not worth spanning: measured);
+    else point by point."""
+    if pp == 0:
+        if (pts[0, 0, HIGHEST] < boxes[i, 0] or pts[0, 1, HIGHEST] < boxes[i, 1]
+                or pts[0, 2, HIGHEST] < boxes[i, 2] or pts[0, 0, LOWEST] > boxes[i, 3]
+                or pts[0, 1, LOWEST] > boxes[i, 4] or pts[0, 2, LOWEST] > boxes[i, 5]):
+            return False
+        if not (outside(boxes, i, pts[0, 0, LOWEST], pts[0, 1, LOWEST], pts[0, 2, LOWEST])
+                or outside(boxes, i, pts[0, 0, HIGHEST], pts[0, 1, HIGHEST],
+                           pts[0, 2, HIGHEST])):
+            return True
     for k in range(nb):
         if not outside(boxes, i, pts[pp, 0, k], pts[pp, 1, k], pts[pp, 2, k]):
             return True
@@ -72,18 +106,33 @@ def _zero_row(vs, sp, nb):
         vs[sp, m] = 0.0
 
 
+@kernel(nrt=True)
+def value_rows(depth):
+    """The value stack of :func:`eval_rows`: depth rows of SUB values, and ``ROWS_SCRATCH``
+    more for operators' batch kernels."""
+    return np.empty((depth + ROWS_SCRATCH, SUB))
+
+
+@kernel(nrt=True)
+def point_rows(depth):
+    """The point stack of :func:`eval_rows`: for each of depth + 1 frames, rows x, y, z of SUB
+    points and two lanes more (LOWEST and HIGHEST)."""
+    return np.zeros((depth + 1, 3, SUB + 2))
+
+
 @kernel
 def eval_rows(code, params, boxes, a, b, pts, nb, vs, tmp):
     """Run the program in rows a:b of code and boxes (skip targets relative to a) on the nb
-    points pts[0, :, :nb] (rows x, y, z); the field is left in vs[0, :nb].  pts (depth + 1, 3,
-    SUB) is the point stack of warps, vs (depth, SUB) the value stack, tmp (depth, 7) scratch for
-    operators without a batch kernel."""
+    points pts[0, :, :nb] (rows x, y, z); the field is left in vs[0, :nb].  pts
+    (:func:`point_rows`) is the point stack of warps, vs (:func:`value_rows`) the value stack,
+    tmp (depth, 7) scratch for operators without a batch kernel."""
     n = b - a
     nw = (nb + W - 1) // W * W
     p = params
     sp = 0
     pp = 0
     i = 0
+    _span(pts, nb)
     while i < n:
         op = code[a + i, 0]
         o = code[a + i, 1]
@@ -235,8 +284,8 @@ def _eval_runs(t0, t1, start, gc, gb, params, first, xyz, depth, slab, vals):
     with vals (M, 7) also the gradient and colour (:func:`eval_rows_full`)."""
     m = xyz.shape[0]
     full = vals.shape[1] == 7
-    pts = np.zeros((depth + 1, 3, SUB))
-    vs = np.empty((depth, SUB))
+    pts = point_rows(depth)
+    vs = value_rows(depth)
     tmp = np.empty((depth, 7))
     lanes = SUB if full else 0  # each point's own stacks, for eval_rows_full
     points = np.empty((lanes, 3))

@@ -126,11 +126,18 @@ class PrimitiveKernels:
 BOUND, BELOW, ABOVE = 4, 5, 6
 
 
+#: Rows at the end of a batch's value stack (engine.batch.value_rows) past its depth, free for
+#: operators' ``rows`` kernels: whole rows of per-point scratch, so their loops run over the
+#: batch's points one step at a time and vectorise.
+ROWS_SCRATCH = 3
+
+
 @dataclass(frozen=True)
 class OperatorKernels:
     """``combine(vs, b, k, p, o, mode)``: the operator over value-stack rows b .. b + k - 1 (field,
     gradient, colour; see engine.interp), result in row b; optional ``rows(vs, b, k, p, o, nb)``:
-    field only over the rows of a batch of nb points (engine.batch), vectorisable; optional
+    field only over the rows of a batch of nb points (engine.batch), vectorisable (its last
+    ``ROWS_SCRATCH`` rows are scratch); optional
     ``bound(vs, b, k, p, o, reach) -> (bound, below, above)``: from the children's fields at a
     point of a region (vs[b + j, 0]) and their bounds over it (vs[b + j, BOUND], a region of
     diameter ``reach``), a bound on |grad f| over the region, and how far from the point the

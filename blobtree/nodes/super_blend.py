@@ -75,18 +75,40 @@ def super_bound(vs, b, k, p, o, reach):
 
 @kernel
 def super_rows(vs, b, k, p, o, nb):
+    """``super_combine``'s field over a batch, each step a loop over the points that vectorises:
+    the largest child m, then each child's (f_j / m)^n with the squarings of ``kmath.power``
+    run for all points at once (the same products in the same order: the same values), summed
+    child by child; only the n-th root, rarely needed (``kmath.root``), goes point by point."""
     n, tiny = p[o], p[o + 1]
+    top, s, r = vs[-3], vs[-2], vs[-1]  # scratch (ROWS_SCRATCH)
     for m in range(nb):
-        top = 0.0
-        for j in range(b, b + k):
-            top = max(top, vs[j, m])
-        if top > 0.0:
-            s = 0.0
-            for j in range(b, b + k):
-                s += _power(vs[j, m] / top, n, tiny)
-            vs[b, m] = top * root(s, n)
+        top[m] = vs[b, m]
+        s[m] = 0.0
+    for j in range(b + 1, b + k):
+        for m in range(nb):
+            top[m] = max(top[m], vs[j, m])
+    whole = n == np.floor(n) and n < 65536.0  # (as kmath.power)
+    for j in range(b, b + k):
+        x = vs[j]  # the child's row becomes its ratio f_j / m, then its squarings
+        for m in range(nb):
+            x[m] = x[m] / top[m] if top[m] > 0.0 else 0.0
+            r[m] = 1.0 if x[m] >= tiny else 0.0
+        if whole:
+            e = int(n)
+            while e:
+                if e & 1:
+                    for m in range(nb):
+                        r[m] *= x[m]
+                for m in range(nb):
+                    x[m] *= x[m]
+                e >>= 1
         else:
-            vs[b, m] = 0.0
+            for m in range(nb):
+                r[m] *= x[m] ** n
+        for m in range(nb):
+            s[m] += r[m]
+    for m in range(nb):
+        vs[b, m] = top[m] * root(s[m], n) if top[m] > 0.0 else 0.0
 
 
 @register

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..checks import Number
 from ..engine import interp
-from ..engine.batch import eval_rows, eval_rows_full
+from ..engine.batch import SUB, eval_rows, eval_rows_full
 from ..engine.specialize import specialize
 from ..jit import kernel
 from ..nodes import kmath
@@ -124,7 +124,6 @@ def _occlusions(code, params, boxes, local, llo, lhi, n, rays, O, D, look, surf,
     which, _, _, _, values = hits
     radius = look[OCCLUSION_RADIUS]
     ns = OCCLUSION_SAMPLES
-    batch = pts.shape[2]
     for in_local in (True, False):
         prog = (code, boxes)
         if in_local:
@@ -143,7 +142,7 @@ def _occlusions(code, params, boxes, local, llo, lhi, n, rays, O, D, look, surf,
                     which[m] = q
                     pts[0, 0, m], pts[0, 1, m], pts[0, 2, m] = x, y, z
                     m += 1
-            if m == batch or (q == n * ns and m > 0):
+            if m == SUB or (q == n * ns and m > 0):
                 eval_rows(prog[0], params, prog[1], 0, prog[0].shape[0], pts, m, vs, tmp)
                 for j in range(m):
                     values[which[j] // ns, which[j] % ns] = vs[0, j]

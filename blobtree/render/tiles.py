@@ -17,6 +17,7 @@ import numpy as np
 
 from ..checks import Integer, Number
 from ..engine.batch import SUB as BATCH
+from ..engine.batch import point_rows, value_rows
 from ..engine.interp import COLUMNS
 from ..engine.specialize import specialize, specialize_work
 from ..jit import kernel
@@ -212,7 +213,7 @@ def _packet_scratch(depth: int, ncode: int, work: np.ndarray) -> tuple:
     return (np.empty((n, 4)), np.empty((10, n)), np.empty((n, 3)), np.empty((n, 3)),
             np.empty((n, 3)), np.empty((n, 3)), np.empty((n, OCC + 1)),
             np.empty((PACKET_ROWS, n)), np.empty((3, n), dtype=np.int64),
-            np.zeros((depth + 1, 3, BATCH)), np.empty((depth, BATCH)), np.empty((depth, 7)),
+            point_rows(depth), value_rows(depth), np.empty((depth, 7)),
             (*_program_buffers(ncode), work, np.empty(3), np.empty(3)),
             (np.empty(BATCH, dtype=np.int64), np.empty((BATCH, 3)),
              np.empty((BATCH, depth, COLUMNS)), np.empty((BATCH, depth, 30)),
