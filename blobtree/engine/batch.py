@@ -78,7 +78,7 @@ def _span(pts, nb):
         pts[0, r, LOWEST], pts[0, r, HIGHEST] = (-np.inf, np.inf) if nan else (lo, hi)
 
 
-@kernel
+@kernel(inline="always")
 def _any_inside(boxes, i, pts, pp, nb):
     """Is any of the batch's points (at point level pp) inside instruction i's box?  At level
     0, decided from the batch's span (:func:`_span`) where the box misses it or holds it whole
@@ -104,6 +104,20 @@ def _any_inside(boxes, i, pts, pp, nb):
 def _zero_row(vs, sp, nb):
     for m in range(nb):
         vs[sp, m] = 0.0
+
+
+@kernel(inline="always")
+def _push_rows(p, o, pts, pp, nb):
+    """Level pp + 1 of the point stack: the 3x4 affine map at params[o:o + 12] of level pp's
+    points (its coefficients read once, so the loop over the points vectorises)."""
+    a0, a1, a2, a3 = p[o], p[o + 1], p[o + 2], p[o + 3]
+    b0, b1, b2, b3 = p[o + 4], p[o + 5], p[o + 6], p[o + 7]
+    c0, c1, c2, c3 = p[o + 8], p[o + 9], p[o + 10], p[o + 11]
+    for m in range(nb):
+        x, y, z = pts[pp, 0, m], pts[pp, 1, m], pts[pp, 2, m]
+        pts[pp + 1, 0, m] = a0 * x + a1 * y + a2 * z + a3
+        pts[pp + 1, 1, m] = b0 * x + b1 * y + b2 * z + b3
+        pts[pp + 1, 2, m] = c0 * x + c1 * y + c2 * z + c3
 
 
 @kernel(nrt=True)
@@ -153,11 +167,7 @@ def eval_rows(code, params, boxes, a, b, pts, nb, vs, tmp):
                 i = code[a + i, 2]
                 continue
             if kind == K_PUSHPT:  # the warp's frame: an affine map of the current points
-                for m in range(nb):
-                    x, y, z = pts[pp, 0, m], pts[pp, 1, m], pts[pp, 2, m]
-                    for r in range(3):
-                        pts[pp + 1, r, m] = (p[o + 4 * r] * x + p[o + 4 * r + 1] * y
-                                             + p[o + 4 * r + 2] * z + p[o + 4 * r + 3])
+                _push_rows(p, o, pts, pp, nb)
                 pp += 1
             elif kind == K_WARP:
                 warp_rows(op, p, o, pts, pp, nb)
