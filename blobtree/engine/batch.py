@@ -20,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..jit import kernel
+from ..nodes import kmath
 from ..nodes.base import FALLOFF, ROWS_SCRATCH
 from ..parallel import parallel_for, threads
 from .dispatch import (
@@ -110,14 +111,10 @@ def _zero_row(vs, sp, nb):
 def _push_rows(p, o, pts, pp, nb):
     """Level pp + 1 of the point stack: the 3x4 affine map at params[o:o + 12] of level pp's
     points (its coefficients read once, so the loop over the points vectorises)."""
-    a0, a1, a2, a3 = p[o], p[o + 1], p[o + 2], p[o + 3]
-    b0, b1, b2, b3 = p[o + 4], p[o + 5], p[o + 6], p[o + 7]
-    c0, c1, c2, c3 = p[o + 8], p[o + 9], p[o + 10], p[o + 11]
+    a = kmath.affine(p, o)
     for m in range(nb):
-        x, y, z = pts[pp, 0, m], pts[pp, 1, m], pts[pp, 2, m]
-        pts[pp + 1, 0, m] = a0 * x + a1 * y + a2 * z + a3
-        pts[pp + 1, 1, m] = b0 * x + b1 * y + b2 * z + b3
-        pts[pp + 1, 2, m] = c0 * x + c1 * y + c2 * z + c3
+        pts[pp + 1, 0, m], pts[pp + 1, 1, m], pts[pp + 1, 2, m] = kmath.map_with(
+            a, pts[pp, 0, m], pts[pp, 1, m], pts[pp, 2, m])
 
 
 @kernel(nrt=True)

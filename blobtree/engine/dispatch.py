@@ -134,8 +134,9 @@ def _kernels() -> dict[str, object]:
 _PRIM = "p, o, qx, qy, qz"
 _DEFAULT_LIPSCHITZ = ("s = K.s(p, o, cx, cy, cz)[0]\n"
                       "return distance_bound(p, o, lip, s, hx, hy, hz, r)")
-_ROWS = """for k in range(nb):
-    qx, qy, qz = map_point(p, o, pts[pp, 0, k], pts[pp, 1, k], pts[pp, 2, k])
+_ROWS = """a = affine(p, o)
+for k in range(nb):
+    qx, qy, qz = map_with(a, pts[pp, 0, k], pts[pp, 1, k], pts[pp, 2, k])
     s = K.s_inline(p, o, qx, qy, qz)[0]
     vs[sp, k] = fo(fid, min(s, 1.0)) if s < 1.0 else 0.0
 return"""
@@ -197,7 +198,7 @@ def _build() -> dict[str, object]:
     their source file, so the generated dispatchers are cached like any other kernel (and
     ``jit.engine_key`` recompiles them whenever a node type's module changes)."""
     namespace = {"__name__": __name__, "NAN": math.nan, "distance_bound": distance_bound,
-                 "fo": kmath.fo, "map_point": kmath.map_point,
+                 "fo": kmath.fo, "affine": kmath.affine, "map_with": kmath.map_with,
                  "to_canonical": kmath.to_canonical, "from_canonical": kmath.from_canonical,
                  **_kernels()}
     exec(compile(SOURCE, __file__, "exec"), namespace)  # noqa: S102 (our own generated code)

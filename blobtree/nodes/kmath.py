@@ -19,12 +19,26 @@ fo_ds = kernel(falloff_ds)
 fo_peak = kernel(falloff_peak)
 
 
+@kernel(inline="always")
+def affine(p, o):
+    """The 3x4 affine map at params[o:o + 12], row by row, as a tuple: read once before a loop
+    over many points (:func:`map_with`), so that the loop vectorises."""
+    return (p[o], p[o + 1], p[o + 2], p[o + 3], p[o + 4], p[o + 5], p[o + 6], p[o + 7],
+            p[o + 8], p[o + 9], p[o + 10], p[o + 11])
+
+
+@kernel(inline="always")
+def map_with(a, x, y, z):
+    """The affine map ``a`` (:func:`affine`) applied to (x, y, z)."""
+    return (a[0] * x + a[1] * y + a[2] * z + a[3],
+            a[4] * x + a[5] * y + a[6] * z + a[7],
+            a[8] * x + a[9] * y + a[10] * z + a[11])
+
+
 @kernel
 def map_point(p, o, x, y, z):
     """The 3x4 affine map at params[o:o + 12] applied to (x, y, z)."""
-    return (p[o] * x + p[o + 1] * y + p[o + 2] * z + p[o + 3],
-            p[o + 4] * x + p[o + 5] * y + p[o + 6] * z + p[o + 7],
-            p[o + 8] * x + p[o + 9] * y + p[o + 10] * z + p[o + 11])
+    return map_with(affine(p, o), x, y, z)
 
 
 @kernel(inline="always")
