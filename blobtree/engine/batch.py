@@ -191,10 +191,14 @@ def _bucket_counts(t0, t1, P, lo, scale, dims, live, cell, counts, out_f):
     for t in range(t0, t1):
         row = counts[t]
         row[:] = 0
-        for j in range(t * n // nparts, (t + 1) * n // nparts):
+        j0, j1 = t * n // nparts, (t + 1) * n // nparts
+        for j in range(j0, j1):  # (vectorises: the counting, a scatter, is the next loop)
             k, inside = cell_of(P[j, 0], P[j, 1], P[j, 2], lo, scale, dims)
             out_f[j] = 0.0
-            ok = np.int64(live[k]) * inside  # no branch: live and dead points mix at random
+            cell[j] = k if inside else -1
+        for j in range(j0, j1):
+            k = max(cell[j], 0)
+            ok = np.int64(live[k]) * (cell[j] >= 0)  # no branch: points mix at random
             row[k] += ok
             cell[j] = k * ok - (1 - ok)
 
