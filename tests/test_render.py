@@ -256,15 +256,12 @@ def test_srgb_bytes_round_the_iec_encoding():
     assert set(got) == set(range(256))
 
 
-def test_each_pixel_shows_its_own_blended_albedo():
-    # A red and a green blob blended: the albedo changes from pixel to pixel within a packet
-    # (the shader reuses a decoded albedo only where the field's colour is the same).
-    tree = (bt.Point(radius=2.0).translate(-0.9, 0, 0).color((0.8, 0.2, 0.2))
-            + bt.Point(radius=2.0).translate(0.9, 0, 0).color((0.2, 0.8, 0.2)))
-    cam = Camera(eye=(0.0, 0.0, 6.0), target=(0.0, 0.0, 0.0), fov=40.0)
-    n = 40
-    img = render(tree, n, n, camera=cam, lights=[Light(direction=(0.0, 0.0, -1.0))],
-                 background=BLACK, ambient=0.0, specular=0.0, shadows=False).astype(int)
+FRONT = Camera(eye=(0.0, 0.0, 6.0), target=(0.0, 0.0, 0.0), fov=40.0)
+
+
+def _front_hits(tree, n: int):
+    """(which of FRONT's n x n pixel-centre rays hit ``tree`` (``intersect``), their hit points,
+    the tree's program)."""
     half = np.tan(np.radians(20.0))
     u = (2 * (np.arange(n) + 0.5) / n - 1) * half
     d = np.stack([np.tile(u, n), -np.repeat(u, n), -np.ones(n * n)], axis=1)
@@ -272,14 +269,28 @@ def test_each_pixel_shows_its_own_blended_albedo():
     o = np.tile([0.0, 0.0, 6.0], (n * n, 1))
     t = intersect(tree, o, d)
     hit = t >= 0
-    p = o[hit] + t[hit, None] * d[hit]
-    prog = tree.program()
+    return hit, o[hit] + t[hit, None] * d[hit], tree.program()
+
+
+def _lit_bytes(srgb: np.ndarray, light: np.ndarray) -> np.ndarray:
+    """8-bit sRGB of sRGB albedos lit by ``light`` (per point), by the IEC formulas."""
+    lin = np.where(srgb <= 0.04045, srgb / 12.92, ((srgb + 0.055) / 1.055) ** 2.4) * light[:, None]
+    return np.round(255 * np.where(lin <= 0.0031308, 12.92 * lin, 1.055 * lin ** (1 / 2.4) - 0.055))
+
+
+def test_each_pixel_shows_its_own_blended_albedo():
+    # A red and a green blob blended: the albedo changes from pixel to pixel within a packet
+    # (the shader reuses a decoded albedo only where the field's colour is the same).
+    tree = (bt.Point(radius=2.0).translate(-0.9, 0, 0).color((0.8, 0.2, 0.2))
+            + bt.Point(radius=2.0).translate(0.9, 0, 0).color((0.2, 0.8, 0.2)))
+    n = 40
+    img = render(tree, n, n, camera=FRONT, lights=[Light(direction=(0.0, 0.0, -1.0))],
+                 background=BLACK, ambient=0.0, specular=0.0, shadows=False).astype(int)
+    hit, p, prog = _front_hits(tree, n)
     g = prog.gradient(p)
     ndl = np.clip((g / np.linalg.norm(g, axis=1, keepdims=True)) @ [0.0, 0.0, -1.0], 0, 1)
     srgb = prog.albedo(p)
-    lin = np.where(srgb <= 0.04045, srgb / 12.92, ((srgb + 0.055) / 1.055) ** 2.4) * ndl[:, None]
-    expected = np.round(255 * np.where(lin <= 0.0031308, 12.92 * lin,
-                                       1.055 * lin ** (1 / 2.4) - 0.055))
+    expected = _lit_bytes(srgb, ndl)
     got = img.reshape(-1, 3)[hit]
     assert len(np.unique(srgb[:, 0].round(6))) > 50  # the albedo varies across the image
     assert np.abs(got - expected).max() <= 2
@@ -293,19 +304,10 @@ def test_ambient_occlusion_follows_the_field_along_each_normal():
     tree = (bt.Point(radius=1.6).translate(-0.7, 0, 0)
             + bt.Point(radius=1.6).translate(0.7, 0.3, -0.4)
             + bt.Point(radius=1.2).translate(0.0, -0.9, 0.6)).color((0.7, 0.6, 0.5))
-    cam = Camera(eye=(0.0, 0.0, 6.0), target=(0.0, 0.0, 0.0), fov=40.0)
     n, strength, radius = 40, 0.9, 0.08
-    img = render(tree, n, n, camera=cam, lights=[], background=BLACK, ambient=1.0, sky=0.0,
+    img = render(tree, n, n, camera=FRONT, lights=[], background=BLACK, ambient=1.0, sky=0.0,
                  occlusion=strength, occlusion_radius=radius, shadows=False).astype(int)
-    half = np.tan(np.radians(20.0))
-    u = (2 * (np.arange(n) + 0.5) / n - 1) * half
-    d = np.stack([np.tile(u, n), -np.repeat(u, n), -np.ones(n * n)], axis=1)
-    d /= np.linalg.norm(d, axis=1, keepdims=True)
-    o = np.tile([0.0, 0.0, 6.0], (n * n, 1))
-    t = intersect(tree, o, d)
-    hit = t >= 0
-    p = o[hit] + t[hit, None] * d[hit]
-    prog = tree.program()
+    hit, p, prog = _front_hits(tree, n)
     lo, hi = prog.bounds
     reach = radius * np.linalg.norm(np.asarray(hi) - np.asarray(lo))
     g = prog.gradient(p)
@@ -316,11 +318,7 @@ def test_ambient_occlusion_follows_the_field_along_each_normal():
     f = prog.field((p[:, None, :] + dist[None, :, None] * normal[:, None, :]).reshape(-1, 3))
     excess = f.reshape(-1, 4) - np.maximum(0.5 - slope[:, None] * dist, 0.0)
     occ = (np.clip(excess / 0.5, 0.0, 1.0) / k).sum(axis=1) / (1.0 / k).sum()
-    srgb = prog.albedo(p)
-    lin = (np.where(srgb <= 0.04045, srgb / 12.92, ((srgb + 0.055) / 1.055) ** 2.4)
-           * (1.0 - strength * occ)[:, None])
-    expected = np.round(255 * np.where(lin <= 0.0031308, 12.92 * lin,
-                                       1.055 * lin ** (1 / 2.4) - 0.055))
+    expected = _lit_bytes(prog.albedo(p), 1.0 - strength * occ)
     got = img.reshape(-1, 3)[hit]
     shown = got.max(axis=1) > 0  # (a grazing ray at the silhouette may miss on either side)
     assert np.mean(~shown) < 0.01 and np.all(img.reshape(-1, 3)[~hit] == 0)
