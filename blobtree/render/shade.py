@@ -202,16 +202,14 @@ NX, NY, NZ, AR, AG, AB, CR, CG, CB, SR, SG, SB, SLOPE, OCC = range(14)
 
 
 @kernel(inline="always")
-def _surface(code, params, boxes, near, nlo, nhi, px, py, pz, vx, vy, vz, look, surf, k, last,
-             ev, vstack, pstack):
-    """The outward normal, albedo and ambient-lit colour at surface point p seen along view
+def _surface(vx, vy, vz, look, surf, k, last, ev):
+    """The outward normal, albedo and ambient-lit colour at a surface point seen along view
     direction v (unit, toward the surface), into row k of the surface table ``surf`` (columns
     :data:`NX` ...), from ``ev``: the field, gradient and colour there (``interp.eval_point``'s
     mode 2 row); the linear albedo is row ``last``'s (the last hit's, -1: none) where the
-    field gives the same colour (within :data:`ALBEDO_SAME`).  ``near`` is the program
-    specialised to the box [nlo, nhi] around p (or the full program and its bounds).
-    ``look``: the ambient light, brighter from above by ``SKY`` and darkened by the field's
-    :func:`occlusion`."""
+    field gives the same colour (within :data:`ALBEDO_SAME`).  ``look``: the ambient light,
+    brighter from above by ``SKY`` (:func:`_ambient`; the occlusion OCC is 0 until
+    :func:`_occlusions` has measured it)."""
     row = surf[k]
     # The field decreases outward, so the outward normal is -grad f.
     nx, ny, nz = -ev[1], -ev[2], -ev[3]
@@ -229,7 +227,7 @@ def _surface(code, params, boxes, near, nlo, nhi, px, py, pz, vx, vy, vz, look, 
                           and abs(row[SB] - prev[SB]) <= ALBEDO_SAME)
     for c in range(3):
         row[AR + c] = prev[AR + c] if same else srgb_to_linear(row[SR + c])
-    row[SLOPE] = nn
+    row[SLOPE], row[OCC] = nn, 0.0
     _ambient(look, row)
 
 
@@ -245,12 +243,12 @@ def _ambient(look, row):
 
 
 @kernel(inline="always")
-def _surfaces(code, params, boxes, near, nlo, nhi, n, inside, rays, O, D, look, surf, last,
-              hits, vstack, pstack):
+def _surfaces(params, near, n, inside, rays, O, D, look, surf, last, hits):
     """:func:`_surface` of the packet's hits whose INSIDE is ``inside``, their fields,
-    gradients and colours evaluated a batch at a time on ``near`` (``batch.eval_rows_full``:
-    one dispatch per instruction serves the batch); ``hits`` = (ray index, point, stacks,
-    frames) of ``tiles._packet_scratch``.  Returns the last hit shaded (``last`` if none)."""
+    gradients and colours evaluated a batch at a time on the program ``near`` (code, boxes,
+    lips) (``batch.eval_rows_full``: one dispatch per instruction serves the batch); ``hits`` =
+    (ray index, point, stacks, frames, occlusion samples) of ``tiles._packet_scratch``.
+    Returns the last hit shaded (``last`` if none)."""
     which, points, stacks, frames, _ = hits
     m = 0
     for k in range(n + 1):
@@ -260,16 +258,12 @@ def _surfaces(code, params, boxes, near, nlo, nhi, n, inside, rays, O, D, look, 
             for r in range(3):
                 points[m, r] = O[k, r] + t * D[k, r]
             m += 1
-        if m == points.shape[0] or (k == n and m > 0):
+        if m == SUB or (k == n and m > 0):
             eval_rows_full(near[0], params, near[1], 0, near[0].shape[0], points, m, stacks,
                            frames)
             for j in range(m):
                 kk = which[j]
-                t = rays[HIT, kk]
-                _surface(code, params, boxes, near, nlo, nhi, O[kk, 0] + t * D[kk, 0],
-                         O[kk, 1] + t * D[kk, 1], O[kk, 2] + t * D[kk, 2], D[kk, 0],
-                         D[kk, 1], D[kk, 2], look, surf, kk, last, stacks[j, 0], vstack,
-                         pstack)
+                _surface(D[kk, 0], D[kk, 1], D[kk, 2], look, surf, kk, last, stacks[j, 0])
                 last = kk
             m = 0
     return last
@@ -372,11 +366,10 @@ def shade_packet(code, params, boxes, lips, local, llo, lhi, n, lights, lo, hi, 
     own = code.shape[0] >= STRETCH_MIN
     last = -1
     for inside in (1.0, 0.0):  # the hits of the local program, then those of the full one
-        near, nlo, nhi = local, llo, lhi
+        near = local
         if inside == 0.0:
-            near, nlo, nhi = (code, boxes, lips), lo, hi
-        last = _surfaces(code, params, boxes, near, nlo, nhi, n, inside, rays, O, D, look,
-                         surf, last, hits, vstack, pstack)
+            near = (code, boxes, lips)
+        last = _surfaces(params, near, n, inside, rays, O, D, look, surf, last, hits)
     if look[OCCLUSION] > 0.0:
         _occlusions(code, params, boxes, local, llo, lhi, n, rays, O, D, look, surf, hits, pts,
                     vs, tmp)
