@@ -81,8 +81,7 @@ def _occlusion_at(tree, points: np.ndarray, radius: float) -> np.ndarray:
     surf[:, [shade.NX, shade.NY, shade.NZ]] = -g / surf[:, shade.SLOPE, None]
     look = np.zeros(7)
     look[shade.OCCLUSION_RADIUS] = radius
-    hits = (np.empty(SUB, dtype=np.int64), np.empty((SUB, 3)), np.empty((SUB, 1, 1)),
-            np.empty((SUB, 1, 1)), np.empty((n, shade.OCCLUSION_SAMPLES)))
+    hits = (np.empty(SUB, dtype=np.int64), np.empty((n, shade.OCCLUSION_SAMPLES)))
     shade._occlusions(code, params, boxes, (code, boxes, lips), lo, hi, n, rays, points - D, D,
                       look, surf, hits, point_rows(prog.depth), value_rows(prog.depth),
                       np.empty((prog.depth, 7)))

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..checks import Number
 from ..engine import interp
-from ..engine.batch import SUB, eval_rows, eval_rows_full
+from ..engine.batch import SUB, eval_rows
 from ..engine.specialize import specialize
 from ..jit import kernel
 from ..nodes import kmath
@@ -121,7 +121,7 @@ def _occlusions(code, params, boxes, local, llo, lhi, n, rays, O, D, look, surf,
     aperture); nearer samples weigh more.  The samples in the local program's box [llo, lhi]
     are evaluated on it, the rest on the full program, a batch at a time
     (``batch.eval_rows``)."""
-    which, _, _, _, values = hits
+    which, values = hits
     radius = look[OCCLUSION_RADIUS]
     ns = OCCLUSION_SAMPLES
     for in_local in (True, False):
@@ -243,33 +243,6 @@ def _ambient(look, row):
 
 
 @kernel(inline="always")
-def _surfaces(params, near, n, inside, rays, O, D, look, surf, last, hits):
-    """:func:`_surface` of the packet's hits whose INSIDE is ``inside``, their fields,
-    gradients and colours evaluated a batch at a time on the program ``near`` (code, boxes,
-    lips) (``batch.eval_rows_full``: one dispatch per instruction serves the batch); ``hits`` =
-    (ray index, point, stacks, frames, occlusion samples) of ``tiles._packet_scratch``.
-    Returns the last hit shaded (``last`` if none)."""
-    which, points, stacks, frames, _ = hits
-    m = 0
-    for k in range(n + 1):
-        if k < n and rays[HIT, k] >= 0.0 and rays[INSIDE, k] == inside:
-            t = rays[HIT, k]
-            which[m] = k
-            for r in range(3):
-                points[m, r] = O[k, r] + t * D[k, r]
-            m += 1
-        if m == SUB or (k == n and m > 0):
-            eval_rows_full(near[0], params, near[1], 0, near[0].shape[0], points, m, stacks,
-                           frames)
-            for j in range(m):
-                kk = which[j]
-                _surface(D[kk, 0], D[kk, 1], D[kk, 2], look, surf, kk, last, stacks[j, 0])
-                last = kk
-            m = 0
-    return last
-
-
-@kernel(inline="always")
 def _toward(lights, j, px, py, pz):
     """Unit direction from p toward light j, and its distance (inf for a directional light; 0
     where p is the light's position)."""
@@ -365,11 +338,16 @@ def shade_packet(code, params, boxes, lips, local, llo, lhi, n, lights, lo, hi, 
     # a long program's shadow rays take programs of their own from the start (STRETCH_MIN)
     own = code.shape[0] >= STRETCH_MIN
     last = -1
-    for inside in (1.0, 0.0):  # the hits of the local program, then those of the full one
-        near = local
-        if inside == 0.0:
-            near = (code, boxes, lips)
-        last = _surfaces(params, near, n, inside, rays, O, D, look, surf, last, hits)
+    for k in range(n):
+        t = rays[HIT, k]
+        if t >= 0.0:
+            near = local
+            if rays[INSIDE, k] == 0.0:
+                near = (code, boxes, lips)
+            interp.eval_point(near[0], params, near[1], O[k, 0] + t * D[k, 0],
+                              O[k, 1] + t * D[k, 1], O[k, 2] + t * D[k, 2], 2, vstack, pstack)
+            _surface(D[k, 0], D[k, 1], D[k, 2], look, surf, k, last, vstack[0])
+            last = k
     if look[OCCLUSION] > 0.0:
         _occlusions(code, params, boxes, local, llo, lhi, n, rays, O, D, look, surf, hits, pts,
                     vs, tmp)

@@ -207,17 +207,15 @@ def _packet_scratch(depth: int, ncode: int, work: np.ndarray) -> tuple:
     ray table (``shade.T`` ...); the camera rays' origins and directions, the shadow rays'
     (n, 3 each); the surface table (``shade.NX`` ...); :func:`trace_packet`'s; and room for a
     program of up to ``ncode`` instructions specialised to a box, ``specialize``'s ``work`` and
-    the box; the hits shaded together (``shade._surfaces``: their rays, points and
-    ``batch.eval_rows_full``'s stacks)."""
+    the box; and the occlusion samples of the hits (``shade._occlusions``: which sample each
+    batch lane holds, and their values)."""
     n = SUB * SUB
     return (np.empty((n, 4)), np.empty((10, n)), np.empty((n, 3)), np.empty((n, 3)),
             np.empty((n, 3)), np.empty((n, 3)), np.empty((n, OCC + 1)),
             np.empty((PACKET_ROWS, n)), np.empty((3, n), dtype=np.int64),
             point_rows(depth), value_rows(depth), np.empty((depth, 7)),
             (*_program_buffers(ncode), work, np.empty(3), np.empty(3)),
-            (np.empty(BATCH, dtype=np.int64), np.empty((BATCH, 3)),
-             np.empty((BATCH, depth, COLUMNS)), np.empty((BATCH, depth, 30)),
-             np.empty((n, OCCLUSION_SAMPLES))))
+            (np.empty(BATCH, dtype=np.int64), np.empty((n, OCCLUSION_SAMPLES))))
 
 
 @kernel
