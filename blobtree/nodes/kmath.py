@@ -119,11 +119,17 @@ TAN_PI_8 = math.tan(math.pi / 8.0)
 
 
 @kernel(inline="always")
+def by_squaring(n):
+    """Does :func:`power` take x ** n by repeated squaring (n a whole number below 2^16)?"""
+    return n == np.floor(n) and n < 65536.0
+
+
+@kernel(inline="always")
 def power(x, n):
     """x ** n, by repeated squaring where n is a whole number below 2^16 (a few ulps from
     ``**``, and several times faster: the paper's n = 400 blends, the looks' shininess), else
     by ``**``."""
-    if n != np.floor(n) or n >= 65536.0:
+    if not by_squaring(n):
         return x ** n
     k = int(n)
     r = 1.0

@@ -9,7 +9,7 @@ import numpy as np
 from ..checks import Number
 from ..jit import kernel
 from .base import BOUND, Node, Operator, OperatorKernels, register, weighted_color
-from .kmath import norm_of, power, root
+from .kmath import by_squaring, norm_of, power, root
 from .params import LARGEST_N, Param
 
 
@@ -87,7 +87,7 @@ def super_rows(vs, b, k, p, o, nb):
     for j in range(b + 1, b + k):
         for m in range(nb):
             top[m] = max(top[m], vs[j, m])
-    whole = n == np.floor(n) and n < 65536.0  # (as kmath.power)
+    whole = by_squaring(n)
     for j in range(b, b + k):
         x = vs[j]  # the child's row becomes its ratio f_j / m, then its squarings
         for m in range(nb):

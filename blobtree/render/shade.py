@@ -202,14 +202,13 @@ NX, NY, NZ, AR, AG, AB, CR, CG, CB, SR, SG, SB, SLOPE, OCC = range(14)
 
 
 @kernel(inline="always")
-def _surface(vx, vy, vz, look, surf, k, last, ev):
-    """The outward normal, albedo and ambient-lit colour at a surface point seen along view
-    direction v (unit, toward the surface), into row k of the surface table ``surf`` (columns
-    :data:`NX` ...), from ``ev``: the field, gradient and colour there (``interp.eval_point``'s
-    mode 2 row); the linear albedo is row ``last``'s (the last hit's, -1: none) where the
-    field gives the same colour (within :data:`ALBEDO_SAME`).  ``look``: the ambient light,
-    brighter from above by ``SKY`` (:func:`_ambient`; the occlusion OCC is 0 until
-    :func:`_occlusions` has measured it)."""
+def _surface(vx, vy, vz, surf, k, last, ev):
+    """The outward normal, albedo and slope at a surface point seen along view direction v
+    (unit, toward the surface), into row k of the surface table ``surf`` (columns :data:`NX`
+    ...), from ``ev``: the field, gradient and colour there (``interp.eval_point``'s mode 2
+    row); the linear albedo is row ``last``'s (the last hit's, -1: none) where the field gives
+    the same colour (within :data:`ALBEDO_SAME`).  The occlusion OCC is 0 until
+    :func:`_occlusions` measures it; :func:`_ambient` then lights the row."""
     row = surf[k]
     # The field decreases outward, so the outward normal is -grad f.
     nx, ny, nz = -ev[1], -ev[2], -ev[3]
@@ -228,7 +227,6 @@ def _surface(vx, vy, vz, look, surf, k, last, ev):
     for c in range(3):
         row[AR + c] = prev[AR + c] if same else srgb_to_linear(row[SR + c])
     row[SLOPE], row[OCC] = nn, 0.0
-    _ambient(look, row)
 
 
 @kernel(inline="always")
@@ -346,14 +344,14 @@ def shade_packet(code, params, boxes, lips, local, llo, lhi, n, lights, lo, hi, 
                 near = (code, boxes, lips)
             interp.eval_point(near[0], params, near[1], O[k, 0] + t * D[k, 0],
                               O[k, 1] + t * D[k, 1], O[k, 2] + t * D[k, 2], 2, vstack, pstack)
-            _surface(D[k, 0], D[k, 1], D[k, 2], look, surf, k, last, vstack[0])
+            _surface(D[k, 0], D[k, 1], D[k, 2], surf, k, last, vstack[0])
             last = k
     if look[OCCLUSION] > 0.0:
         _occlusions(code, params, boxes, local, llo, lhi, n, rays, O, D, look, surf, hits, pts,
                     vs, tmp)
-        for k in range(n):
-            if rays[HIT, k] >= 0.0:
-                _ambient(look, surf[k])
+    for k in range(n):
+        if rays[HIT, k] >= 0.0:
+            _ambient(look, surf[k])
     for j in range(lights.shape[0]):
         d_local = d_full = np.inf  # the first candidate segments of the two stretches
         for k in range(n):
