@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib
+import io
 import math
 import threading
 
@@ -435,6 +436,23 @@ def test_bad_light_and_tile_arguments():
     cam = Camera(eye=(0.0, 0.0, 5.0))
     with pytest.raises(ValueError, match="tile"):
         render_tile(bt.Point(radius=1.0).program(), cam, [], settings, 0, 0, 9, 8)
+
+
+@pytest.mark.parametrize("shape", [(1, 1), (3, 2), (37, 101), (200, 333)])
+def test_png_pieces_deflated_apart_join_into_the_image(monkeypatch, shape):
+    """The PNG writer's own encoding (Sub filter, deflated in pieces on several threads) decodes,
+    through Pillow's independent decoder with its CRC checks, to the very pixels written; pieces
+    far smaller than the image force many joins, at every offset in a row."""
+    from blobtree.render import image
+
+    rng = np.random.default_rng(shape[0])
+    img = rng.integers(0, 256, (*shape, 3), dtype=np.uint8)
+    img[: shape[0] // 2] //= 16  # some rows that compress, some that do not
+    for piece in (7, 1000, 1 << 20):
+        monkeypatch.setattr(image, "PNG_PIECE", piece)
+        data = image.encode_png(img)
+        Image.open(io.BytesIO(data)).verify()
+        assert (np.asarray(Image.open(io.BytesIO(data))) == img).all()
 
 
 def test_save_image_writes_png_atomically(tmp_path):
