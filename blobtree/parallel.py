@@ -15,6 +15,7 @@ from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import numba
+from numba.np.ufunc import parallel as numba_threading
 
 #: Parts per thread: a little more than one, so uneven parts even out.
 PARTS_PER_THREAD = 4
@@ -25,8 +26,13 @@ _lock = threading.Lock()
 
 
 def threads() -> int:
-    """How many threads kernels run on."""
-    return numba.get_num_threads()
+    """How many threads kernels run on: numba's count, ``NUMBA_NUM_THREADS`` unless
+    ``numba.set_num_threads`` changed it, read without starting numba's own pool of threads
+    (17-28 ms of every command, and the kernels never use that pool): until the pool starts,
+    no ``set_num_threads`` has run (it starts the pool), so the count is numba's setting."""
+    if getattr(numba_threading, "_is_initialized", True):
+        return numba.get_num_threads()
+    return numba.config.NUMBA_NUM_THREADS
 
 
 def _executor(n: int) -> ThreadPoolExecutor:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
@@ -546,6 +548,22 @@ def test_parallel_for_cuts_coarse_items_into_parts_for_every_thread(monkeypatch)
         assert all(b0 == a1 for (_, b0), (a1, _) in zip(parts[:-1], parts[1:], strict=True))
         if grain == parallel.MIN_PART:
             assert len(parts) == 1
+
+
+def test_thread_count_is_numbas_without_starting_numbas_pool():
+    """``parallel.threads`` is NUMBA_NUM_THREADS in a fresh process without starting numba's own
+    pool of threads (which costs a command 17-28 ms), and follows ``numba.set_num_threads``."""
+    import subprocess
+    import sys
+
+    code = ("import numba; from numba.np.ufunc import parallel as p; from blobtree import parallel;"
+            "n = parallel.threads(); print(n, p._is_initialized); numba.set_num_threads(1);"
+            "print(parallel.threads())")
+    for count in ("1", "2"):
+        env = {**os.environ, "NUMBA_NUM_THREADS": count}
+        out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                             text=True, check=True).stdout.split()
+        assert out == [count, "False", "1"]
 
 
 def test_box_hierarchy_cuts_where_fewest_boxes_hold_a_point():

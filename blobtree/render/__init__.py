@@ -14,13 +14,13 @@ from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor, as_completed
 from typing import Any
 
-import numba
 import numpy as np
 
 from ..checks import Choice
 from ..engine.program import program_of
 from ..nodes import Point
 from ..parallel import parallel_for
+from ..parallel import threads as parallel_threads
 from .camera import Camera, seen_camera
 from .checkpoint import Checkpoint, job_key
 from .image import save_image
@@ -102,7 +102,7 @@ def render(tree, width: int, height: int, camera: Camera | None = None,
     settings = RenderSettings(width=width, height=height, samples=samples, shadows=bool(shadows),
                               **values)
     if threads is None:
-        threads = numba.get_num_threads()
+        threads = parallel_threads()
     if not (isinstance(threads, int) and threads >= 1):
         raise ValueError(f"threads must be an integer >= 1, got {threads!r}")
     prog = program_of(tree)
