@@ -370,6 +370,18 @@ def test_tiles_assemble_into_identical_bytes(samples):
     assert (render(prog, w, h, samples=samples, tile=7) == whole).all()
 
 
+def test_default_tile_is_the_largest_that_keeps_every_thread_busy():
+    from blobtree.render import TILE_SIDES, TILES_PER_THREAD, tile_side
+
+    for w, h, threads in ((1600, 1600, 2), (1024, 1024, 2), (800, 600, 1), (64, 64, 2),
+                          (4000, 300, 8), (1, 1, 1)):
+        side = tile_side(w, h, threads)
+        count = {s: -(-w // s) * -(-h // s) for s in TILE_SIDES}
+        busy = [s for s in TILE_SIDES if count[s] >= TILES_PER_THREAD * threads]
+        assert side == (max(busy) if busy else min(TILE_SIDES))
+    assert tile_side(1600, 1600, 2) > tile_side(256, 256, 2)
+
+
 def test_tiles_cover_the_image_once():
     cover = np.zeros((50, 70), dtype=int)
     for x0, y0, x1, y1 in tiles(70, 50, 16):

@@ -53,7 +53,8 @@ def _output(ctx, param, value):
                    "polished; paper: the plain style of the paper's figures.")
 @click.option("--background", callback=floats(3),
               help="Plain background colour r,g,b in [0, 1] instead of the look's backdrop.")
-@click.option("--tile", default=64, show_default=True, help="Tile side in pixels.")
+@click.option("--tile", type=int, default=None,
+              help="Tile side in pixels  [default: 128 for large images, else 64].")
 @click.option("--checkpoint", type=click.Path(file_okay=False),
               help="Directory keeping each finished tile, so an interrupted render can resume.")
 @click.option("--resume", is_flag=True,
