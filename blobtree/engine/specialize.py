@@ -129,7 +129,9 @@ def specialize(code, params, boxes, lips, lo, hi, oc, ob, ol, work):
     One pass over the program with a stack of open subtrees (a BOX head, its children, then the
     closing operator or COLOR at the head's skip target - 1), kept in ``work``
     (:func:`specialize_work`): nothing is allocated, so kernels compiled without reference
-    counting may call it."""
+    counting may call it.  ``code`` must be a whole program (``Program.arrays``), never one this
+    wrote: that one lacks the BOX heads of the subtrees holding the box whole, and its closing
+    instructions keep the whole program's skip targets."""
     f_end = work[0]     # source index after the subtree
     f_start = work[1]   # output index where it began
     f_head = work[2]    # output index of its kept BOX head, or -1
