@@ -4,11 +4,9 @@ Dask cluster (``scheduler=``)."""
 from __future__ import annotations
 
 import html
-import io
 from typing import Any
 
 import numpy as np
-from PIL import Image
 
 from . import distributed
 from .mesh import Mesh
@@ -17,6 +15,7 @@ from .mesh.web import page
 from .nodes import Node
 from .render import render as _render
 from .render.camera import seen_camera
+from .render.image import encode_png
 
 
 def render(tree, width: int, height: int, *args: Any, scheduler=None,
@@ -56,9 +55,7 @@ def preview(tree: Node, size: int = PREVIEW_SIZE, **options: Any) -> np.ndarray:
 
 def _node_png(node: Node) -> bytes:
     """PNG bytes of :func:`preview` (Jupyter's ``_repr_png_``)."""
-    buffer = io.BytesIO()
-    Image.fromarray(preview(node)).save(buffer, format="PNG")
-    return buffer.getvalue()
+    return encode_png(preview(node))
 
 
 def _mesh_html(mesh: Mesh) -> str:

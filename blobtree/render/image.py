@@ -9,7 +9,6 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
-from PIL import Image
 
 from ..files import atomic_path
 
@@ -79,5 +78,7 @@ def save_image(img: np.ndarray, path: str | os.PathLike) -> Path:
         if fmt == "PNG":
             tmp.write_bytes(encode_png(img))
         else:
+            from PIL import Image  # (lazily: a render's PNG needs no Pillow, ~8 ms a command)
+
             Image.fromarray(img, "RGB").save(tmp, format=fmt)
     return path
