@@ -163,6 +163,25 @@ def test_resume_skips_finished_tiles(tmp_path, monkeypatch, local_image):
     assert len(after) == total and all(after[k] == t for k, t in saved.items())
 
 
+def test_resume_cuts_the_image_as_the_interrupted_render_did(tmp_path, monkeypatch):
+    """The default tile side depends on the cores; a render resumed with other cores still cuts
+    the image as the interrupted one did (the side is in the manifest), so it redoes only the
+    tiles not finished."""
+    monkeypatch.setattr(br, "TILE_SIDES", (16, 8))
+    monkeypatch.setattr(br, "TILES_PER_THREAD", 4)
+    ckpt, size = tmp_path / "ckpt", dict(width=64, height=32)
+    assert br.tile_side(64, 32, 1) == 16 and br.tile_side(64, 32, 8) == 8
+    with monkeypatch.context() as m:
+        interrupt_after(m, 3)
+        with pytest.raises(Interrupted):
+            bt.render(scene(), **size, threads=1, checkpoint=ckpt)
+    with monkeypatch.context() as m:
+        redone = count_tiles(m)
+        img = bt.render(scene(), **size, threads=8, checkpoint=ckpt, resume=True)
+    assert len(redone) == 8 - 3 and all(x1 - x0 == 16 for x0, _, x1, _ in redone)
+    assert np.array_equal(img, bt.render(scene(), **size, threads=8))
+
+
 def test_resume_on_the_cluster(tmp_path, monkeypatch, client, local_image):
     ckpt = tmp_path / "ckpt"
     with monkeypatch.context() as m:

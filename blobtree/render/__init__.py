@@ -120,8 +120,6 @@ def render(tree, width: int, height: int, camera: Camera | None = None,
         threads = parallel_threads()
     if not (isinstance(threads, int) and threads >= 1):
         raise ValueError(f"threads must be an integer >= 1, got {threads!r}")
-    if tile is None:
-        tile = tile_side(width, height, threads)
     prog = program_of(tree)
     if camera is None:
         camera = seen_camera(tree, prog, width, height)
@@ -129,13 +127,18 @@ def render(tree, width: int, height: int, camera: Camera | None = None,
         raise ValueError(f"camera must be a blobtree Camera or None, got {camera!r}")
     lights = default_lights(camera) if lights is None else list(lights)
     img = np.empty((height, width, 3), dtype=np.uint8)
-    rects = list(tiles(width, height, tile))
     store = None
     if checkpoint is not None:
         store = Checkpoint(checkpoint, job_key(prog, camera, lights, settings), resume=resume)
-        rects = store.restore(img, rects)
+        tile = store.held_tile if tile is None else tile
     elif resume:
         raise ValueError("resume=True needs a checkpoint directory (checkpoint=None given)")
+    if tile is None:
+        tile = tile_side(width, height, threads)
+    rects = list(tiles(width, height, tile))
+    if store is not None:
+        store.tile = tile
+        rects = store.restore(img, rects)
     if source is None:
         done = _local_tiles(prog, camera, lights, settings, rects, threads)
     else:

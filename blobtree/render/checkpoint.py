@@ -33,7 +33,10 @@ def job_key(prog, camera: Camera, lights: Sequence[Light],
 
 class Checkpoint:
     """Finished tiles of one render in a directory: ``tile-X0-Y0-X1-Y1.npy`` per tile (written
-    atomically) and ``manifest.json`` naming the job, so tiles of another job are never used."""
+    atomically) and ``manifest.json`` naming the job, so tiles of another job are never used,
+    and the tile side, so a resumed render cuts its image as the interrupted one did (the
+    default side depends on the cores: :func:`blobtree.render.tile_side`).  ``tile`` is the side
+    this render uses: the held one (:attr:`held_tile`) unless it chose its own."""
 
     MANIFEST = "manifest.json"
 
@@ -46,8 +49,13 @@ class Checkpoint:
         self.job = job
         self.manifest = self.directory / self.MANIFEST
         self.started = self.manifest.exists()
+        self.held_tile: int | None = None
+        self.tile: int | None = None
         if self.started:
-            held = json.loads(self.manifest.read_text()).get("job")
+            manifest = json.loads(self.manifest.read_text())
+            held = manifest.get("job")
+            if isinstance(manifest.get("tile"), int) and manifest["tile"] >= 1:
+                self.held_tile = manifest["tile"]
             if not resume:
                 raise ValueError(
                     f"checkpoint directory {str(directory)!r} already holds a render; resume it "
@@ -78,7 +86,7 @@ class Checkpoint:
         """Keep one finished tile (the manifest is written with the first one)."""
         if not self.started:
             with atomic_path(self.manifest) as tmp:
-                tmp.write_text(json.dumps({"job": self.job}))
+                tmp.write_text(json.dumps({"job": self.job, "tile": self.tile}))
             self.started = True
         with atomic_path(self._path(rect)) as tmp, open(tmp, "wb") as fh:
             np.save(fh, pixels)
