@@ -209,8 +209,8 @@ def test_cell_sorted_blocks_and_order(monkeypatch):
 
 def test_cell_sorted_batches_take_points_far_outside():
     """Infinite, huge and NaN coordinates in a large batch fall outside the grid (the cell
-    lookup converts no such value to an integer): they get a zero field, and every other
-    point keeps the one-point path's value."""
+    lookup converts no such value to an integer): infinite and huge ones get a zero field, NaN
+    ones NaN, and every point the one-point path's value."""
     from blobtree.engine import GRID_MIN_POINTS
 
     prog = bt.models.whorl126().program()
@@ -222,8 +222,10 @@ def test_cell_sorted_batches_take_points_far_outside():
     f = prog.field(P)
     chunks = [prog.field(P[a:a + GRID_MIN_POINTS - 1])
               for a in range(0, len(P), GRID_MIN_POINTS - 1)]
-    np.testing.assert_array_equal(f[~far], np.concatenate(chunks)[~far])
-    assert np.all(f[far] == 0.0) and np.count_nonzero(f[~far]) > 1000
+    np.testing.assert_array_equal(f, np.concatenate(chunks))  # (NaN where NaN)
+    nan = np.isnan(P).any(axis=1)
+    assert np.isnan(f[nan]).all() and np.all(f[far & ~nan] == 0.0)
+    assert np.count_nonzero(f[~far]) > 1000
 
 
 @examples(0.25)
@@ -548,6 +550,22 @@ def test_parallel_for_cuts_coarse_items_into_parts_for_every_thread(monkeypatch)
         assert all(b0 == a1 for (_, b0), (a1, _) in zip(parts[:-1], parts[1:], strict=True))
         if grain == parallel.MIN_PART:
             assert len(parts) == 1
+
+
+def test_nan_and_infinite_points_agree_on_both_paths():
+    """A point with a NaN coordinate has a NaN field and gradient, one at infinity 0, whether a
+    batch is small (one point at a time) or large (the grid of specialised programs)."""
+    from blobtree.engine import GRID_MIN_POINTS
+
+    prog = bt.models.whorl126().program()
+    P = np.tile([0.0, 2.0, 0.0], (GRID_MIN_POINTS + 7, 1))
+    P[3, 1], P[4, 2], P[5, 0], P[6] = np.nan, np.inf, -np.inf, np.nan
+    for n in (7, len(P)):
+        f, g, c = prog.evaluate(P[:n])
+        assert np.isnan(f[[3, 6]]).all() and np.isnan(g[[3, 6]]).all()
+        assert (f[[4, 5]] == 0.0).all() and (g[[4, 5]] == 0.0).all()
+        assert np.isfinite(f[7:]).all() and np.isfinite(g[7:]).all()
+        assert (c[3:7] == c[3]).all()
 
 
 def test_thread_count_is_numbas_without_starting_numbas_pool():

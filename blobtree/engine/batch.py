@@ -184,8 +184,9 @@ def eval_rows(code, params, boxes, a, b, pts, nb, vs, tmp):
 def _bucket_counts(t0, t1, P, lo, scale, dims, live, cell, counts, out_f):
     """Pass 1 of the partition, for parts t0..t1 - 1 of the points (one per row of counts):
     each point's cell, and how many of the part's points fall in each.  Every point's field
-    starts as 0: final for a point outside the grid or in a cell whose program is a lone zero
-    (``live`` 0), which gets cell -1 and is not sorted."""
+    starts as 0 (NaN for a point with a NaN coordinate, as ``eval_point`` gives): final for a
+    point outside the grid or in a cell whose program is a lone zero (``live`` 0), which gets
+    cell -1 and is not sorted."""
     n = P.shape[0]
     nparts = counts.shape[0]
     for t in range(t0, t1):
@@ -193,8 +194,9 @@ def _bucket_counts(t0, t1, P, lo, scale, dims, live, cell, counts, out_f):
         row[:] = 0
         j0, j1 = t * n // nparts, (t + 1) * n // nparts
         for j in range(j0, j1):  # (vectorises: the counting, a scatter, is the next loop)
-            k, inside = cell_of(P[j, 0], P[j, 1], P[j, 2], lo, scale, dims)
-            out_f[j] = 0.0
+            x, y, z = P[j, 0], P[j, 1], P[j, 2]
+            k, inside = cell_of(x, y, z, lo, scale, dims)
+            out_f[j] = np.nan if (x != x) | (y != y) | (z != z) else 0.0
             cell[j] = k if inside else -1
         for j in range(j0, j1):
             k = max(cell[j], 0)
@@ -372,6 +374,8 @@ def eval_sorted(grid: Grid, params: np.ndarray, depth: int, P: np.ndarray, out_f
         g[:], c[:] = 0.0, DEFAULT_GREY  # a zero field's (the counting pass zeroes the field)
         parallel_for(_bucket_counts, nparts, Q, lo, scale, dims, live, cell, counts, f,
                      parts=nparts)
+        if len(g):  # a NaN point's gradient is NaN too (its field is; no cell holds it)
+            g[np.isnan(f)] = np.nan
         np.cumsum(counts.sum(axis=0), out=first[1:])
         offsets = first[:-1] + np.cumsum(counts, axis=0) - counts  # each part's place
         k = int(first[-1])

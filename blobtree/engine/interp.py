@@ -578,9 +578,19 @@ def lipschitz_segment(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, length,
 @kernel(nrt=True, nogil=True)
 def eval_range(start, stop, code, params, boxes, P, mode, depth, out_f, out_g, out_c):
     """Evaluate points start..stop - 1 of (N, 3) P; fills out_f and, by mode, out_g / out_c
-    (one part of :func:`parallel.parallel_for`)."""
+    (one part of :func:`parallel.parallel_for`).  A point with a NaN coordinate has a NaN
+    field and gradient and the grey of a zero field, as on the grid path
+    (``batch.eval_sorted``), whatever boxes its other coordinates pass."""
     vs, ps = scratch(depth)
     for m in range(start, stop):
+        if P[m, 0] != P[m, 0] or P[m, 1] != P[m, 1] or P[m, 2] != P[m, 2]:
+            out_f[m] = np.nan
+            for r in range(3):
+                if mode > 0:
+                    out_g[m, r] = np.nan
+                if mode > 1:
+                    out_c[m, r] = DEFAULT_GREY
+            continue
         if mode == 0:
             out_f[m] = eval_point(code, params, boxes, P[m, 0], P[m, 1], P[m, 2], 0, vs, ps)
             continue
