@@ -41,6 +41,7 @@ from .interp import (
     DEFAULT_GREY,
     apply_warp,
     combine,
+    nan_point,
     outside,
     paint_top,
     pop_frame,
@@ -196,7 +197,7 @@ def _bucket_counts(t0, t1, P, lo, scale, dims, live, cell, counts, out_f):
         for j in range(j0, j1):  # (vectorises: the counting, a scatter, is the next loop)
             x, y, z = P[j, 0], P[j, 1], P[j, 2]
             k, inside = cell_of(x, y, z, lo, scale, dims)
-            out_f[j] = np.nan if (x != x) | (y != y) | (z != z) else 0.0
+            out_f[j] = np.nan if nan_point(x, y, z) else 0.0
             cell[j] = k if inside else -1
         for j in range(j0, j1):
             k = max(cell[j], 0)

@@ -87,6 +87,13 @@ def outside(boxes, i, x, y, z):
             or x > boxes[i, 3] or y > boxes[i, 4] or z > boxes[i, 5])
 
 
+@kernel(inline="always")
+def nan_point(x, y, z):
+    """Has (x, y, z) a NaN coordinate?  Such a point has no field: it evaluates to NaN (field
+    and gradient) on every path.  (No branches: it vectorises.)"""
+    return (x != x) | (y != y) | (z != z)
+
+
 @kernel
 def misses(boxes, i, lox, loy, loz, hix, hiy, hiz):
     """Does the box [lo, hi] miss instruction i's box?"""
@@ -583,7 +590,7 @@ def eval_range(start, stop, code, params, boxes, P, mode, depth, out_f, out_g, o
     (``batch.eval_sorted``), whatever boxes its other coordinates pass."""
     vs, ps = scratch(depth)
     for m in range(start, stop):
-        if P[m, 0] != P[m, 0] or P[m, 1] != P[m, 1] or P[m, 2] != P[m, 2]:
+        if nan_point(P[m, 0], P[m, 1], P[m, 2]):
             out_f[m] = np.nan
             for r in range(3):
                 if mode > 0:
