@@ -184,10 +184,10 @@ def eval_rows(code, params, boxes, a, b, pts, nb, vs, tmp):
 @kernel(nogil=True)
 def _bucket_counts(t0, t1, P, lo, scale, dims, live, cell, counts, out_f):
     """Pass 1 of the partition, for parts t0..t1 - 1 of the points (one per row of counts):
-    each point's cell, and how many of the part's points fall in each.  Every point's field
-    starts as 0 (NaN for a point with a NaN coordinate, as ``eval_point`` gives): final for a
-    point outside the grid or in a cell whose program is a lone zero (``live`` 0), which gets
-    cell -1 and is not sorted."""
+    each point's cell, and how many of the part's points fall in each.  out_f holds zeros: a
+    point outside the grid or in a cell whose program is a lone zero (``live`` 0) keeps its 0
+    (NaN for a point with a NaN coordinate, as ``eval_point`` gives), gets cell -1 and is not
+    sorted."""
     n = P.shape[0]
     nparts = counts.shape[0]
     for t in range(t0, t1):
@@ -197,7 +197,8 @@ def _bucket_counts(t0, t1, P, lo, scale, dims, live, cell, counts, out_f):
         for j in range(j0, j1):  # (vectorises: the counting, a scatter, is the next loop)
             x, y, z = P[j, 0], P[j, 1], P[j, 2]
             k, inside = cell_of(x, y, z, lo, scale, dims)
-            out_f[j] = np.nan if nan_point(x, y, z) else 0.0
+            if nan_point(x, y, z):
+                out_f[j] = np.nan
             cell[j] = k if inside else -1
         for j in range(j0, j1):
             k = max(cell[j], 0)
@@ -372,7 +373,9 @@ def eval_sorted(grid: Grid, params: np.ndarray, depth: int, P: np.ndarray, out_f
     for a in range(0, len(P), BLOCK):
         Q = P[a:a + BLOCK]
         f, g, c = out_f[a:a + BLOCK], out_g[a:a + BLOCK], out_c[a:a + BLOCK]
-        g[:], c[:] = 0.0, DEFAULT_GREY  # a zero field's (the counting pass zeroes the field)
+        # A zero field's (final where no cell holds the point): written on this thread, since
+        # two threads touching fresh pages at once can take ten times as long (docs/engine.md).
+        f[:], g[:], c[:] = 0.0, 0.0, DEFAULT_GREY
         parallel_for(_bucket_counts, nparts, Q, lo, scale, dims, live, cell, counts, f,
                      parts=nparts)
         if len(g):  # a NaN point's gradient is NaN too (its field is; no cell holds it)
