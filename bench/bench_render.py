@@ -138,8 +138,10 @@ def main() -> None:
             our_png = out / f"whorl126_{size}_{tag}_blobtree.png"
             pov_cmd = [povray, f"+I{pov_file}", f"+O{pov_png}", f"+W{size}", f"+H{size}", "-D",
                        "-A", "+FN", "-GA", "File_Gamma=sRGB", f"+WT{os.cpu_count()}"]
-            t_pov = min(timed(pov_cmd) for _ in range(args.repeat))
-            t_cli = min(timed(ours(size, our_png, shadows), env) for _ in range(args.repeat))
+            t_pov = t_cli = math.inf
+            for _ in range(args.repeat):  # alternated: a machine whose speed drifts during
+                t_pov = min(t_pov, timed(pov_cmd))  # the run weighs on both sides alike
+                t_cli = min(t_cli, timed(ours(size, our_png, shadows), env))
             # the paper look: one light, plain background, as the POV-Ray scene
             render(prog, 64, 64, camera=camera, shadows=shadows, look="paper")  # warm-up
             t_in = math.inf
