@@ -36,7 +36,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import blobtree as bt  # noqa: E402
-from blobtree.models.helico import MUREX_SPIRAL  # noqa: E402
+from blobtree.helico import MUREX_SPIRAL  # noqa: E402
 from blobtree.models.yardstick import THETA_S  # noqa: E402
 from blobtree.render import Camera, render  # noqa: E402
 from blobtree.render.camera import default_camera  # noqa: E402

@@ -2,12 +2,12 @@
 and Wyvill, "Modeling Murex cabritii sea shell with a structured implicit surface modeler").
 
 Layers, each importing only those before it (docs/architecture.md): the model (``nodes``,
-``fields``, ``texture``, ``io``, ``models``), the engine (``engine``), the mesher and the ray
-tracer (``mesh``, ``render``), then scale-out (``distributed``), this API and the command line.
+``fields``, ``helico``, ``texture``, ``io``, ``models``), the engine (``engine``), the mesher
+and the ray tracer (``mesh``, ``render``), then scale-out (``distributed``), this API and the
+command line.
 """
 
-from . import engine, models, textures
-from .allocator import pin_thresholds
+from . import engine, models, texture
 from .api import polygonize, preview, render
 from .engine import Program, compile_tree
 from .io import load, save
@@ -15,13 +15,15 @@ from .mesh import Mesh
 from .nodes import *  # noqa: F403  (every node type and operator function, see nodes.__all__)
 from .nodes import __all__ as _node_names
 from .render import Camera, Light, RenderSettings, render_tile, save_image
+from .runtime.allocator import pin_thresholds
+from .texture import pigment as textures  # bt.textures: the pigment models' earlier name
 
 __version__ = "0.2.0"
 
-pin_thresholds()  # large arrays reused, not fresh pages each time (blobtree/allocator.py)
+pin_thresholds()  # large arrays reused, not fresh pages each time (blobtree/runtime/allocator.py)
 
 __all__ = [
     *_node_names, "Camera", "Light", "Mesh", "Program", "RenderSettings", "compile_tree",
     "engine", "load", "models", "polygonize", "preview", "render", "render_tile", "save",
-    "save_image", "textures",
+    "save_image", "texture",
 ]

@@ -204,7 +204,7 @@ class RemoteProgram:
 
     def bound_at(self, lo: np.ndarray, hi: np.ndarray, at: np.ndarray) -> np.ndarray:
         """``Program.bound_at``: per box [lo, hi] (M, 3) holding its point ``at``, the field
-        there, a bound on |grad f| over the box and how far the field stays below and above
+        there, a bound on ``|grad f|`` over the box and how far the field stays below and above
         0.5 (M, 4)."""
         return np.concatenate(self._map("bound_at", lo, hi, at))
 

@@ -1,4 +1,4 @@
-"""Small geometric helpers shared by the nodes and the compiler: validation, affine maps, boxes."""
+"""Small geometric helpers shared by the nodes and the compiler: axes, affine maps, boxes."""
 
 from __future__ import annotations
 
@@ -7,42 +7,12 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from .checks import Vec3, angle
+
 AXES = {"x": 0, "y": 1, "z": 2}
 
 #: An axis-aligned box as (lo, hi), each a (3,) float array; empty when any lo > hi.
 Box = tuple[np.ndarray, np.ndarray]
-
-
-def check_vec3(name: str, value: Sequence[float]) -> np.ndarray:
-    """A finite 3-vector, or ValueError naming the parameter."""
-    try:
-        v = np.asarray(value, dtype=float).reshape(-1)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a 3-vector of numbers, got {value!r}") from None
-    if v.shape != (3,):
-        raise ValueError(f"{name} must be a 3-vector of numbers, got {value!r}")
-    if not np.all(np.isfinite(v)):
-        raise ValueError(f"{name} must be finite, got {tuple(v.tolist())!r}")
-    return v
-
-
-def check_positive(name: str, value: float) -> float:
-    """A finite number > 0, or ValueError naming the parameter."""
-    v = check_finite(name, value)
-    if v <= 0.0:
-        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
-    return v
-
-
-def check_finite(name: str, value: float) -> float:
-    """A finite number, or ValueError naming the parameter."""
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number, got {value!r}") from None
-    if not math.isfinite(v):
-        raise ValueError(f"{name} must be finite, got {value!r}")
-    return v
 
 
 def axis_vector(axis: str | Sequence[float]) -> np.ndarray:
@@ -53,7 +23,7 @@ def axis_vector(axis: str | Sequence[float]) -> np.ndarray:
         v = np.zeros(3)
         v[AXES[axis]] = 1.0
         return v
-    v = check_vec3("axis", axis)
+    v = Vec3().check("axis", axis)
     n = np.linalg.norm(v)
     if n == 0.0:
         raise ValueError("axis must be a non-zero vector, got (0, 0, 0)")
@@ -63,7 +33,7 @@ def axis_vector(axis: str | Sequence[float]) -> np.ndarray:
 def rotation_matrix(axis: str | Sequence[float], degrees: float) -> np.ndarray:
     """3x3 rotation by ``degrees`` about ``axis`` (right-hand rule), Rodrigues' formula."""
     u = axis_vector(axis)
-    t = math.radians(check_finite("degrees", degrees))
+    t = math.radians(angle().check("degrees", degrees))
     k = np.array([[0.0, -u[2], u[1]], [u[2], 0.0, -u[0]], [-u[1], u[0], 0.0]])
     return np.eye(3) + math.sin(t) * k + (1.0 - math.cos(t)) * (k @ k)
 

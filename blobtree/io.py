@@ -28,10 +28,10 @@ from typing import Any
 import numpy as np
 
 from .checks import short_repr
-from .files import atomic_path
 from .nodes import REGISTRY, Node
-from .nodes.base import arity_words
-from .texture import image_from_text, image_to_text
+from .nodes.node import arity_words
+from .output import atomic_path
+from .texture.mapping import image_from_text, image_to_text
 
 FORMAT = "blobtree-scene"
 VERSION = 4

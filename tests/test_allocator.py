@@ -6,7 +6,7 @@ import sys
 
 import pytest
 
-from blobtree.allocator import MMAP_THRESHOLD, pin_thresholds
+from blobtree.runtime.allocator import MMAP_THRESHOLD, pin_thresholds
 
 #: arrays of 1 to 3.5 MiB, each larger than the last and freed before the next: glibc's own
 #: heuristic serves every one with fresh pages (each above the threshold the last free set);

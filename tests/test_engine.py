@@ -492,7 +492,7 @@ def test_concurrent_evaluation_from_python_threads_is_safe():
 def test_an_equal_tree_built_again_reuses_the_compiled_program():
     import gc
 
-    from blobtree.nodes.base import _PROGRAMS
+    from blobtree.nodes.node import _PROGRAMS
 
     def build(r):
         return bt.blend(bt.Point(radius=r), bt.Cone((0, 0, 0), (1, 0, 0), 0.5, 0.2))
@@ -538,7 +538,7 @@ def test_parallel_for_cuts_coarse_items_into_parts_for_every_thread(monkeypatch)
     """A range of a few large items (a batch's slabs of 8192 points) is still cut into a part per
     thread or more when ``grain=1``; by default parts hold at least MIN_PART items.  Either way
     the parts cover the range once, in order."""
-    from blobtree import parallel
+    from blobtree.runtime import threads as parallel
 
     monkeypatch.setattr(parallel, "threads", lambda: 2)
     for n, grain, fewest in ((25, 1, 2), (25, parallel.MIN_PART, 1), (1000, 1, 8)):

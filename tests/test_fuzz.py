@@ -28,7 +28,7 @@ from hypothesis import strategies as st
 import blobtree as bt
 from blobtree.io import SceneError, dumps, loads
 from blobtree.nodes import REGISTRY
-from blobtree.nodes.base import MAX_DEPTH
+from blobtree.nodes.node import MAX_DEPTH
 from tests.trees import trees, value
 
 #: examples per fuzz test under the ``ci`` profile (scaled for ``quick`` and ``thorough``)
@@ -195,13 +195,21 @@ COLOUR = st.tuples(*[st.floats(0.0, 1.0)] * 3)
         background_bottom=st.one_of(st.none(), COLOUR), occlusion=st.floats(0.0, 1.0),
         light_radius=st.floats(0.0, 30.0), sky=st.floats(0.0, 1.0)))))
 def test_cameras_lights_and_settings_work_or_refuse(call):
+    """Either the value is made, keeping every argument as a finite value of its own, or it is
+    refused with a ValueError that names one of the arguments it was given."""
     make, kwargs = call
     try:
-        make(**kwargs)
-    except ValueError:
+        made = make(**kwargs)
+    except ValueError as e:
         event(f"{make.__name__} refused")
+        assert any(name in str(e) for name in kwargs), f"{e} names none of {sorted(kwargs)}"
         return
     event(f"{make.__name__} made")
+    assert isinstance(made, make)
+    for name in kwargs:
+        value = getattr(made, name)
+        if value is not None and not isinstance(value, bool):
+            assert np.all(np.isfinite(np.asarray(value, dtype=float))), (name, value)
 
 
 # ----- scene documents --------------------------------------------------------------------------

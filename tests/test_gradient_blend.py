@@ -136,7 +136,7 @@ def test_ties_take_the_first_childs_colour_in_engine_and_reference():
     up to rounding, which went one way in the engine and the other in the reference, so the
     colours differed (found by the thorough hypothesis profile).  Ties go to the first child."""
     from blobtree.engine import GRID_MIN_POINTS
-    from blobtree.nodes.texture_map import Texture
+    from blobtree.nodes.texture import Texture
 
     image = np.random.default_rng(0).uniform(0.0, 1.0, (4, 4, 3))
     first = bt.Segment((0, 0, 1), (0, 0, 0), radius=1.0)

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 import blobtree as bt
 from blobtree.io import SceneError, dumps, loads
-from blobtree.texture import HelicoSurface
+from blobtree.texture.mapping import HelicoSurface
 from tests.conftest import examples
 from tests.trees import sample_points, trees
 
@@ -62,7 +62,7 @@ def _nested(node, images):
 @examples(0.3)
 @given(trees(max_leaves=6))
 def test_version_1_files_still_load(tree):
-    from blobtree.texture import image_to_text
+    from blobtree.texture.mapping import image_to_text
 
     images = {}
     root = _nested(tree, images)

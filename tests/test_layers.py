@@ -12,8 +12,8 @@ PACKAGE = Path(__file__).resolve().parents[1] / "blobtree"
 
 #: Layers from the bottom up; a module may import its own layer and those below.
 LAYERS = [
-    {"jit", "files", "checks", "parallel", "allocator"},
-    {"geometry", "fields", "spiral", "texture", "textures", "nodes"},
+    {"runtime", "output", "checks"},
+    {"geometry", "fields", "helico", "texture", "nodes"},
     {"io", "models"},
     {"engine"},
     {"render", "mesh"},

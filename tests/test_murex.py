@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import blobtree as bt
-from blobtree.models.helico import helico_spiral
+from blobtree.helico import helico_spiral
 from blobtree.nodes import Bend
 
 pytestmark = pytest.mark.slow  # builds the full shell

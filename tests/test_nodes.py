@@ -9,7 +9,7 @@ import pytest
 
 import blobtree as bt
 from blobtree import fields
-from blobtree.nodes.kmath import power
+from blobtree.nodes.kernel_math import power
 
 
 @pytest.mark.parametrize("name", ["soft_object", "cubic"])
@@ -24,7 +24,7 @@ def test_falloff_ends_and_slopes(name):
     slope = np.abs(np.gradient(f, r))
     assert slope[0] < 1e-4 and slope[-1] < 1e-4
     assert slope.max() <= fields.SLOPE[name]  # the Lipschitz constant we use is an upper bound
-    # |df/ds| falls with s (a ray's rise bound, kmath.quadric_rise, takes it at the least s)
+    # |df/ds| falls with s (a ray's rise bound, kernel_math.quadric_rise, takes it at the least s)
     ds = np.abs(fields.falloff_ds(fid, r * r))
     assert np.all(np.diff(ds) <= 1e-15)
 
@@ -201,11 +201,11 @@ def test_bend_map_kernel_matches_the_reference_before_on_and_past_the_arc():
 
 
 def test_branch_free_atan2_matches_numpy_in_every_octant():
-    """kmath.atan2 (a polynomial, so loops over points vectorise) against numpy's arctan2:
+    """kernel_math.atan2 (a polynomial, so loops over points vectorise) against numpy's arctan2:
     every octant, both sides of the reduction at tan(pi/8), tiny and huge ratios, axes."""
     import numba
 
-    from blobtree.nodes import kmath
+    from blobtree.nodes import kernel_math
 
     rng = np.random.default_rng(7)
     angle = rng.uniform(-math.pi, math.pi, 20000)
@@ -218,7 +218,7 @@ def test_branch_free_atan2_matches_numpy_in_every_octant():
     @numba.njit
     def run(y, x, out):
         for i in range(y.shape[0]):
-            out[i] = kmath.atan2(y[i], x[i])
+            out[i] = kernel_math.atan2(y[i], x[i])
 
     out = np.empty(len(y))
     run(y, x, out)

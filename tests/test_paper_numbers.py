@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import blobtree as bt
-from blobtree.models.helico import helico_spiral
+from blobtree.helico import helico_spiral
 
 pytestmark = pytest.mark.slow  # builds whole parts of the shell
 

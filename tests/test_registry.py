@@ -15,7 +15,7 @@ import blobtree as bt
 from blobtree.engine import dispatch
 from blobtree.io import dumps, loads, schema
 from blobtree.nodes import REGISTRY
-from blobtree.nodes.base import register
+from blobtree.nodes.node import register
 from tests.trees import node_of, trees
 
 TYPES = sorted(REGISTRY)

@@ -15,9 +15,9 @@ from hypothesis import strategies as st
 
 import blobtree as bt
 from blobtree import checks as C
+from blobtree.helico import HelicoSpiral
 from blobtree.nodes import params as K
-from blobtree.spiral import HelicoSpiral
-from blobtree.texture import HelicoSurface
+from blobtree.texture.mapping import HelicoSurface
 
 #: The one bounding-surface mapping the generated trees use (cheap: few steps, two whorls).
 HELICO = HelicoSurface(spiral=HelicoSpiral(r0=0.3), radius_factor=1.0, theta_max=720.0,

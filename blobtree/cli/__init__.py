@@ -10,7 +10,7 @@ from collections.abc import Iterator
 import click
 from tqdm import tqdm
 
-from ..jit import on_compile
+from ..runtime.jit import on_compile
 
 
 def start_command() -> None:

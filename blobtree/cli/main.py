@@ -9,11 +9,11 @@ import click
 import numpy as np
 
 from .. import __version__, models
-from ..files import atomic_path, check_writable
 from ..io import SceneError
 from ..mesh import polygonize
 from ..mesh.thickness import measure
 from ..nodes import Node
+from ..output import atomic_path, check_writable
 from . import compile_notice, length_mm, start_command
 from .figures_cmd import figures
 from .mesh_cmd import mesh

@@ -9,8 +9,8 @@ import click
 import numpy as np
 
 from ..api import polygonize
-from ..files import check_writable
 from ..mesh.export import ENCODERS, FORMATS, import_trimesh
+from ..output import check_writable
 from . import compile_notice, length_mm
 from .cluster import cluster, cluster_options
 from .scenes import resolve_scene, scene_view

@@ -8,7 +8,7 @@ import time
 import click
 
 from ..api import render as render_image
-from ..files import check_writable
+from ..output import check_writable
 from ..render import LOOKS, Camera, save_image, warm_kernels
 from ..render.camera import default_camera
 from ..render.tiles import MAX_SIDE

@@ -8,9 +8,9 @@ from pathlib import Path
 import click
 
 from ..api import polygonize
-from ..files import check_writable
 from ..mesh.export import import_trimesh
 from ..mesh.web import save_page
+from ..output import check_writable
 from . import compile_notice, floats
 from .scenes import resolve_scene, scene_view
 

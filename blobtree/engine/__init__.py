@@ -6,7 +6,7 @@ region; ``batch`` evaluates large batches cell by cell.  Importing the engine in
 compiler for ``Node.program()``.
 """
 
-from ..nodes.base import use_compiler
+from ..nodes.node import use_compiler
 from .program import GRID_MIN_POINTS, Program, compile_tree
 
 use_compiler(compile_tree)

@@ -19,10 +19,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..jit import kernel
-from ..nodes import kmath
-from ..nodes.base import FALLOFF, ROWS_SCRATCH
-from ..parallel import parallel_for, threads
+from ..nodes import kernel_math
+from ..nodes.layout import FALLOFF, ROWS_SCRATCH
+from ..runtime.jit import kernel
+from ..runtime.threads import parallel_for, threads
 from .dispatch import (
     K_BOX,
     K_OPERATOR,
@@ -112,9 +112,9 @@ def _zero_row(vs, sp, nb):
 def _push_rows(p, o, pts, pp, nb):
     """Level pp + 1 of the point stack: the 3x4 affine map at params[o:o + 12] of level pp's
     points (its coefficients read once, so the loop over the points vectorises)."""
-    a = kmath.affine(p, o)
+    a = kernel_math.affine(p, o)
     for m in range(nb):
-        pts[pp + 1, 0, m], pts[pp + 1, 1, m], pts[pp + 1, 2, m] = kmath.map_with(
+        pts[pp + 1, 0, m], pts[pp + 1, 1, m], pts[pp + 1, 2, m] = kernel_math.map_with(
             a, pts[pp, 0, m], pts[pp, 1, m], pts[pp, 2, m])
 
 

@@ -17,9 +17,11 @@ import math
 
 import numpy as np
 
-from ..jit import kernel
-from ..nodes import REGISTRY, kmath
-from ..nodes.base import FALLOFF, LIPSCHITZ_RULES, RADIUS, ZERO_RULES, Node, freeze_registry
+from ..nodes import REGISTRY, kernel_math
+from ..nodes.kernels import LIPSCHITZ_RULES, ZERO_RULES
+from ..nodes.layout import FALLOFF, RADIUS
+from ..nodes.node import Node, freeze_registry
+from ..runtime.jit import kernel
 
 #: Kinds of instructions, in opcode order.
 K_PRIMITIVE, K_OPERATOR, K_WARP, K_PAINT, K_BOX, K_PUSHPT, K_POPPT, K_ZERO = range(8)
@@ -186,11 +188,11 @@ SOURCE = "".join([
 @kernel
 def distance_bound(p, o, lip, s, hx, hy, hz, r):
     """The default box bound of a primitive with a constant field radius R: the distance-aware
-    bound (``kmath.distance_lipschitz``) for a region around a centre with s = d^2 / R^2, within
-    the box of half extents h and the ball of radius r there."""
+    bound (``kernel_math.distance_lipschitz``) for a region around a centre with s = d^2 / R^2,
+    within the box of half extents h and the ball of radius r there."""
     radius = p[o + RADIUS]
-    return kmath.distance_lipschitz(lip, int(p[o + FALLOFF]), radius, math.sqrt(s) * radius,
-                                    min(math.sqrt(hx * hx + hy * hy + hz * hz), r))
+    return kernel_math.distance_lipschitz(lip, int(p[o + FALLOFF]), radius, math.sqrt(s) * radius,
+                                          min(math.sqrt(hx * hx + hy * hy + hz * hz), r))
 
 
 def _build() -> dict[str, object]:
@@ -198,8 +200,9 @@ def _build() -> dict[str, object]:
     their source file, so the generated dispatchers are cached like any other kernel (and
     ``jit.engine_key`` recompiles them whenever a node type's module changes)."""
     namespace = {"__name__": __name__, "NAN": math.nan, "distance_bound": distance_bound,
-                 "fo": kmath.fo, "affine": kmath.affine, "map_with": kmath.map_with,
-                 "to_canonical": kmath.to_canonical, "from_canonical": kmath.from_canonical,
+                 "fo": kernel_math.fo, "affine": kernel_math.affine,
+                 "map_with": kernel_math.map_with, "to_canonical": kernel_math.to_canonical,
+                 "from_canonical": kernel_math.from_canonical,
                  **_kernels()}
     exec(compile(SOURCE, __file__, "exec"), namespace)  # noqa: S102 (our own generated code)
     names = ("prim_s", "prim_uv", "prim_lipschitz", "prim_along", "prim_rise", "prim_rows",
@@ -214,7 +217,7 @@ _D = _build()
 prim_s = _D["prim_s"]
 #: (u, v) of a primitive: prim_uv(op, p, o, qx, qy, qz)
 prim_uv = _D["prim_uv"]
-#: bound on |grad f| over a local region (a box and a ball about its centre):
+#: bound on ``|grad f|`` over a local region (a box and a ball about its centre):
 #: prim_lipschitz(op, p, o, lip, cx, cy, cz, hx, hy, hz, r)
 prim_lipschitz = _D["prim_lipschitz"]
 #: bound on |df/dt| along a frame segment, or -1: prim_along(op, p, o, ox.., dx.., length)

@@ -23,9 +23,7 @@ import math
 
 import numpy as np
 
-from ..jit import kernel
-from ..nodes.base import ABOVE, BELOW, BOUND, FALLOFF, FRAME_NORM, MAP_NORM
-from ..nodes.kmath import (
+from ..nodes.kernel_math import (
     fo,
     fo_ds,
     from_canonical,
@@ -37,6 +35,8 @@ from ..nodes.kmath import (
     texel,
     to_canonical,
 )
+from ..nodes.layout import ABOVE, BELOW, BOUND, FALLOFF, FRAME_NORM, MAP_NORM
+from ..runtime.jit import kernel
 from .dispatch import (
     K_BOX,
     K_OPERATOR,
@@ -299,7 +299,7 @@ def carry(kind, op, p, o, lip, lox, loy, loz, hix, hiy, hiz, rad, scratch):
 @kernel
 def support_misses(code, p, lips, i, lox, loy, loz, hix, hiy, hiz, rad):
     """Is primitive i zero all over the region (its frame's coordinates: within the box
-    [lo, hi] and the ball of radius ``rad`` about its centre)?  True when its bound on |grad f|
+    [lo, hi] and the ball of radius ``rad`` about its centre)?  True when its bound on ``|grad f|``
     there is 0 (its field is constant there) and it is zero at the centre: a tighter test than
     its box's (a ball's support against a box, a cone's distance from its axis)."""
     op, o = code[i, 0], code[i, 1]
@@ -517,7 +517,7 @@ def _bounded(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox, o
 
 @kernel(inline="always")
 def lipschitz_box(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, vs):
-    """A bound on |grad f| over the box [lo, hi] (world coordinates): the tree's Lipschitz rules
+    """A bound on ``|grad f|`` over the box [lo, hi] (world coordinates): the tree's Lipschitz rules
     (sum at blends, max at CSG) over only the primitives whose boxes meet it, each with its
     distance-aware bound; through a warp the region is carried into the warp's child frame (as
     the ball about the warped centre grown by the warp's stretch, and the cube around it:
@@ -556,7 +556,7 @@ def _bound_at(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, x, y
 @kernel(inline="always")
 def bound_box_at(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, x, y, z, dx, dy, dz,
                  spread, values, vs, ps):
-    """(The field at (x, y, z), a point of the box [lo, hi]; a bound on |grad f| over the box;
+    """(The field at (x, y, z), a point of the box [lo, hi]; a bound on ``|grad f|`` over the box;
     how far from the point within the box the field surely stays below ISO; and above it).
     With ``values`` (see :func:`bounds_use_values`), CSG operators drop the bounds of children
     that the field values at the point show cannot set the result anywhere in the box, and

@@ -28,9 +28,10 @@ import numpy as np
 
 from .. import geometry as geo
 from ..fields import FALLOFFS
-from ..nodes.base import ISO, REGISTRY, Node, Operator, Paint, Primitive
+from ..nodes.kinds import Operator, Paint, Primitive
+from ..nodes.node import ISO, REGISTRY, Node
 from ..nodes.warp import Warp
-from ..parallel import parallel_for
+from ..runtime.threads import parallel_for
 from . import batch as B
 from . import interp as K
 from . import specialize as S
@@ -84,7 +85,7 @@ class Program:
 
     @cached_property
     def lipschitz_global(self) -> float:
-        """A bound on |grad f| valid everywhere: the box bound over the tree's bounds (outside
+        """A bound on ``|grad f|`` valid everywhere: the box bound over the tree's bounds (outside
         them the field is 0); computed on first use.  0 for an empty tree."""
         lo, hi = (np.asarray(b, dtype=np.float64) for b in self.bounds)
         if np.any(lo > hi):
@@ -178,7 +179,7 @@ class Program:
         return self._run(P, 2)
 
     def lipschitz(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-        """Per box (M, 3) corners: a bound on |grad f| valid over the whole box."""
+        """Per box (M, 3) corners: a bound on ``|grad f|`` valid over the whole box."""
         lo = np.ascontiguousarray(lo, dtype=np.float64).reshape(-1, 3)
         hi = np.ascontiguousarray(hi, dtype=np.float64).reshape(-1, 3)
         out = np.empty(len(lo))
@@ -188,7 +189,7 @@ class Program:
 
     def bound_at(self, lo: np.ndarray, hi: np.ndarray, at: np.ndarray) -> np.ndarray:
         """Per box (M, 3) corners and a point ``at`` (M, 3) of each, a row (M, 4): the field at
-        the point, a bound on |grad f| over the box, and how far from the point the field
+        the point, a bound on ``|grad f|`` over the box, and how far from the point the field
         surely stays below and above 0.5 within the box.  The field values let CSG operators
         tighten both (a child that cannot set the result anywhere in the box adds nothing to
         the bound; a min stays below 0.5 as far as any of its terms does)."""

@@ -24,8 +24,8 @@ from functools import cached_property
 
 import numpy as np
 
-from ..jit import kernel
-from ..parallel import parallel_for
+from ..runtime.jit import kernel
+from ..runtime.threads import parallel_for
 from .dispatch import (
     K_OPERATOR,
     K_PRIMITIVE,

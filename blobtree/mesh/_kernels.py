@@ -26,8 +26,8 @@ import itertools
 
 import numpy as np
 
-from ..jit import cached
-from ..parallel import parallel_for, parallel_map
+from ..runtime.jit import cached
+from ..runtime.threads import parallel_for, parallel_map
 
 # --- cell geometry, generated (corner c = x + 2y + 4z) ----------------------------------------
 

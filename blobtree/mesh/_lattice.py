@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..jit import cached
-from ..parallel import parallel_for
+from ..runtime.jit import cached
+from ..runtime.threads import parallel_for
 
 
 def new_store(nblocks, block, fine, kept_slot, kept_loc, kept_value):

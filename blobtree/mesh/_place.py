@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 
-from ..jit import cached
+from ..runtime.jit import cached
 
 
 @cached(inline="always")
@@ -105,8 +105,8 @@ def newton_step(start, stop, f, grad, iso, axis, h, t, t_lo, t_hi, movable, vert
 
 @cached(nogil=True)
 def outward_normals(start, stop, grad, out, flat):
-    """Unit outward normals -grad f / |grad f| of vertices start..stop - 1 into out; where
-    |grad f| < 1e-12, ``flat`` is set and out left at 0 (the caller puts a face normal
+    """Unit outward normals -grad f / ``|grad f|`` of vertices start..stop - 1 into out; where
+    ``|grad f|`` < 1e-12, ``flat`` is set and out left at 0 (the caller puts a face normal
     there)."""
     for r in range(start, stop):
         gx, gy, gz = -grad[r, 0], -grad[r, 1], -grad[r, 2]

@@ -13,9 +13,9 @@ from pathlib import Path
 import numpy as np
 
 from ..checks import Number, positive
-from ..files import atomic_path
-from ..jit import cached
-from ..parallel import parallel_for
+from ..output import atomic_path
+from ..runtime.jit import cached
+from ..runtime.threads import parallel_for
 
 #: file extension -> format; PLY and STL are encoded here (``ENCODERS``), the others by trimesh
 #: (3MF's unit is the millimetre)

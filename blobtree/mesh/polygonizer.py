@@ -29,8 +29,8 @@ import numpy as np
 
 from ..checks import Integer, Vec3, positive, short_repr
 from ..engine.program import program_of
-from ..nodes.base import ISO
-from ..parallel import parallel_for
+from ..nodes.node import ISO
+from ..runtime.threads import parallel_for
 from ._kernels import block_triangles
 from ._lattice import (
     box_geometry,
@@ -446,7 +446,7 @@ def _project(prog, grid: _Grid, p: np.ndarray) -> np.ndarray:
 
 
 def _normals(grad: np.ndarray, verts: np.ndarray, tris: np.ndarray) -> np.ndarray:
-    """Unit outward normals -grad f / |grad f|; face normals where the gradient vanishes."""
+    """Unit outward normals -grad f / ``|grad f|``; face normals where the gradient vanishes."""
     normals, flat = np.empty_like(grad), np.empty(len(grad), dtype=bool)
     parallel_for(outward_normals, len(grad), grad, normals, flat)
     if np.any(flat):

@@ -1,7 +1,7 @@
 """Thin parts: how thick the solid is under its surface, measured on the field.
 
 A printer cannot make what is thinner than its nozzle.  At points of the surface (a mesh's
-vertices), :func:`measure` walks into the solid along the inward normal (-grad f / |grad f|)
+vertices), :func:`measure` walks into the solid along the inward normal (-grad f / ``|grad f|``)
 until the field falls below the iso-value again: that distance is the thickness *across*.  From
 the middle of that chord it then walks both ways along ``DIRECTIONS`` directions of the tangent
 plane; the shortest such chord is the feature's *width*.  A spine (a rod) is about as wide as

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..files import atomic_path
+from ..output import atomic_path
 from ..render.camera import frame_points
 from .export import Mesh, import_trimesh
 

@@ -1,9 +1,10 @@
 """Built-in models: the yardstick ``whorl126`` (docs/conventions.md), shells built from specs
-(:func:`shell`, :data:`SHELLS`: the paper's Murex cabritii and other species) and the models of
-the paper's figures."""
+(:func:`shell`, :data:`~blobtree.models.spec.SHELLS`: the paper's Murex cabritii and other species)
+and the models of the paper's figures."""
 
+from ..helico import MUREX_SPIRAL, HelicoSpiral, helico_spiral, place
+from ..texture.pigment import ActivatorInhibitor, pigment_texture
 from .figures import FIGURES
-from .helico import MUREX_SPIRAL, HelicoSpiral, helico_spiral, place
 from .murex import (
     TABLE_1,
     TABLE_2,
@@ -21,7 +22,6 @@ from .murex import (
     varix,
     whorl,
 )
-from .pigment import ActivatorInhibitor, pigment_texture
 from .spec import SHELLS, ShellSpec, load_spec
 from .yardstick import whorl126
 

@@ -12,6 +12,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..nodes import Node, Point, blend, controlled_blend, super_blend, union
+from ..texture.shell import SHELL_TEXTURES
 from .murex import (
     APERTURE_VIEW,
     BUMP_BLEND_N,
@@ -33,7 +34,6 @@ from .murex import (
     varix,
     whorl,
 )
-from .shell_textures import SHELL_TEXTURES
 from .spec import SHELLS
 
 #: Local parts (generating surfaces, varices) are seen face on, the apex side up.
@@ -314,8 +314,8 @@ def grown_spines_figure(seed: int = 0) -> Node:
 
 
 def patterns_figure(seed: int = 0) -> np.ndarray:
-    """The pigment patterns of ``bt.textures.PATTERNS`` side by side, named."""
-    from ..textures import pattern_sheet  # noqa: PLC0415  (images only for this figure)
+    """The pigment patterns of ``bt.texture.PATTERNS`` side by side, named."""
+    from ..texture.pigment import pattern_sheet  # noqa: PLC0415  (images only for this figure)
 
     return pattern_sheet(seed=seed)
 

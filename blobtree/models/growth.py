@@ -4,7 +4,7 @@ The paper's Table 1 lists each whorl's spines by hand, and "the number and place
 suddenly change from one whorl to another" (its Section 4); its authors name reaction-diffusion
 as the way forward.  Here the lip (the generating curve's angles alpha, one cell per
 ``CELL_DEG``) carries Meinhardt's activator-inhibitor system (ABoSS Eq. 2.1, the model of
-``bt.textures``), run through the shell's growth.  A cell can make a spine only while it is
+``bt.texture``), run through the shell's growth.  A cell can make a spine only while it is
 competent: the competent arc grows from the first spined whorl's angles of the spec's Table 1 to
 the last whorl's (linearly in time), as the Murex's spiny shoulder widens down its whorls;
 outside it the source density is 0, so no activator forms.  A stable Turing pattern keeps its
@@ -21,7 +21,7 @@ import functools
 
 import numpy as np
 
-from ..textures import ActivatorInhibitor
+from ..texture.pigment import ActivatorInhibitor
 from .spec import ShellSpec
 
 #: Degrees of lip per cell, and the lip's angles (the generating curve's outer half).

@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ..checks import Integer
+from ..helico import place
 from ..nodes import (
     Cone,
     Node,
@@ -36,9 +37,9 @@ from ..nodes import (
     super_blend,
     union,
 )
-from ..texture import HelicoSurface
-from .helico import place
-from .shell_textures import SHELL_TEXTURES, VARIX_PALE, shell_textures
+from ..texture import pigment
+from ..texture.mapping import HelicoSurface
+from ..texture.shell import SHELL_TEXTURES, VARIX_PALE, shell_textures
 from .spec import SHELLS, ShellSpec, load_spec
 
 # ---------------------------------------------------------------------------------------------
@@ -237,10 +238,10 @@ def body_whorl(canal_sections: int | None = None, spec: ShellSpec = DEFAULT,
                ) -> Node:
     """Eq. 10: B_m = c(L_blendpairs)(L_Blobtrees): each section blends with its two neighbours
     along the spiral only, so adjacent whorls do not blend.  With ``texture`` (Figure 12(a)),
-    each section is textured separately by the bounding surface :func:`body_mapping` (Section
+    each section is textured separately by the bounding surface ``body_mapping`` (Section
     3.4, one copy per ``period`` degrees, default a section); the joins lie under the
     varices.  ``colour``: each section painted this plain colour instead.  ``lumps``: per
-    section, bumps joined to it by :func:`gradient_join` (after its texture or colour, so they
+    section, bumps joined to it by ``gradient_join`` (after its texture or colour, so they
     keep their own)."""
     secs = sections(canal_sections, spec)
     if texture is not None:
@@ -358,7 +359,7 @@ def _varix_whorls(spec: ShellSpec) -> list[tuple[int, int]]:
 def varices(spec: ShellSpec = DEFAULT, texture: np.ndarray | None = None) -> list[Node]:
     """Eq. 13: B_v placed by Eq. 8 at every 116 deg over the joins of the sections, three per
     whorl (21 in all for the Murex; whorl 1's without spines, see the spec), and, with
-    ``down_canal``, continued down the canal (:func:`canal_varix`).  With ``texture`` (Figure
+    ``down_canal``, continued down the canal (``canal_varix``).  With ``texture`` (Figure
     12(b)), field-interpolated on the spines' cones (Section 3.4), the tori painted in the
     texture's pale ground colour."""
     wrap = SHELL_TEXTURES["varix_spine"].wrap
@@ -599,20 +600,19 @@ def inside_wall(spec: ShellSpec = DEFAULT) -> Node:
 
 
 def _pattern_texture(name: str, seed: int, spec: ShellSpec, cells: int = 512) -> np.ndarray:
-    """A pigment pattern grown along the whole spiral (bt.textures): its rows are time, so they
-    become the texture's columns (u, along the spiral), its ``cells`` columns the lip (v).  As
-    many rows per degree as keep a cell as long along the growth as across the lip (a wave
-    moving a cell per row draws 45 deg lines on the shell, as on a real one): a degree of growth
-    is R pi / 180 long, the lip about 2 pi 1.08 D sqrt((sx^2 + sy^2) / 2) (the tube of visible
-    radius 1.08 D, scaled by point_scale); fewer cells when the rows would pass 4096.  The lip's
-    ends meet, as v wraps around the tube."""
-    from .. import textures  # noqa: PLC0415  (textures is optional to the paper's shell)
+    """A pigment pattern grown along the whole spiral (:mod:`blobtree.texture.pigment`): its
+    rows are time, so they become the texture's columns (u, along the spiral), its ``cells``
+    columns the lip (v).  As many rows per degree as keep a cell as long along the growth as
+    across the lip (a wave moving a cell per row draws 45 deg lines on the shell, as on a real
+    one): a degree of growth is R pi / 180 long, the lip about 2 pi 1.08 D sqrt((sx^2 + sy^2) / 2)
+    (the tube of visible radius 1.08 D, scaled by point_scale); fewer cells when the rows would
+    pass 4096.  The lip's ends meet, as v wraps around the tube."""
     sx, sy, _ = spec.point_scale
     lip = 2.0 * math.pi * 1.08 * spec.spiral.d_over_r * math.sqrt((sx * sx + sy * sy) / 2.0)
     per_cell = spec.instances * spec.theta_s * math.pi / 180.0 / lip  # rows per cell
     cells = max(16, min(cells, int(4096 / per_cell)))  # images have at most 4096 columns
     rows = max(64, min(4096, round(cells * per_cell)))
-    image = textures.meinhardt(name, cells, rows, seed=seed)
+    image = pigment.meinhardt(name, cells, rows, seed=seed)
     for axis in (0, 1):  # lines a cell thin would alias away: widen the (darker) pigment to 3
         image = np.minimum.reduce([np.roll(image, k, axis=axis) for k in (-1, 0, 1)])
     return np.round(np.clip(image.transpose(1, 0, 2), 0.0, 1.0) * 255.0).astype(np.uint8)
@@ -622,7 +622,7 @@ def outer_shell(seed: int = 0, spec: ShellSpec = DEFAULT, textured: bool = True)
     """B_shell of Eq. 15: the main body whorl with its varices and canal spines blended in, and
     the bumps joined by the super-elliptic blend n = 400 (Section 3.2), or with ``bumps.join =
     "gradient"`` each section's bumps joined to it by the gradient-based blend (ours,
-    :func:`gradient_join`).
+    ``gradient_join``).
 
     ``textured``: the spec's look: the four textures of Figure 12 (generated from ``seed``) by
     the paper's two methods (Section 3.4): (a) per section by a bounding surface, (b)-(d) on the
@@ -681,7 +681,7 @@ def shell(spec: ShellSpec | Mapping | str | Path = "murex", seed: int = 0, insid
     cell, and a mesher sampling it keeps fragments of it as separate slivers, different ones at
     each resolution (up to 4 extra solids per shell from 128 to 512 cells with sharp cuts, 24-61
     before the wall was clipped).  A rounded difference is within smooth / 4 of the sharp one
-    and only removes the part of such an edge thinner than about smooth / (2 |grad f|): the
+    and only removes the part of such an edge thinner than about smooth / (2 ``|grad f|``): the
     lip is blunt, as a real shell's is.  The solid is still Eqs. 14 and 15, with its edges
     rounded rather than sharp; ``lip_smooth = cut_smooth = 0`` gives the sharp form.
 
@@ -705,7 +705,7 @@ def murex(seed: int = 0, inside: bool = True, textured: bool = True, pattern: st
           **choices: object) -> Node:
     """The whole Murex cabritii shell (Figure 14), Eq. 15, ``shell(SHELLS["murex"])``.
 
-    ``pattern``: a pigment pattern of ``bt.textures.PATTERNS`` grown on the body instead of the
+    ``pattern``: a pigment pattern of ``bt.texture.PATTERNS`` grown on the body instead of the
     paper's texture (only colours change); keyword arguments override fields of the spec
     (:class:`ShellSpec`, e.g. ``canal_fuse=False``)."""
     allowed = sorted(f for f in ShellSpec.__dataclass_fields__ if f != "name")

@@ -27,8 +27,8 @@ from types import MappingProxyType
 from typing import Any
 
 from ..checks import Choice, Integer, Kind, Number, positive, short_repr
-from ..spiral import HelicoSpiral
-from ..textures import PATTERNS
+from ..helico import HelicoSpiral
+from ..texture.pigment import PATTERNS
 
 #: The version of the spec format this code reads.
 VERSION = 1
@@ -219,7 +219,7 @@ class ShellSpec:
                               "rounding of Eq. 14's difference and of the wall's, in field value")
     texture: str = _spec("look", "texture", Choice(("paper", "plain", *PATTERNS)),
                          "'paper': Figure 12's textures; 'plain': colours; or a pigment pattern "
-                         "of bt.textures.PATTERNS grown along the body")
+                         "of bt.texture.PATTERNS grown along the body")
     colours: tuple = _spec("look", "colours", Numbers(4, _RGB),
                            "plain colours of body, varices, bumps and inside")
     up: tuple = _spec("look", "up", Numbers(3, Number(-1.0, 1.0)), "screen up for renders")
@@ -400,8 +400,8 @@ def _resolve(name: Any) -> ShellSpec:
 
 
 def load_spec(spec: ShellSpec | Mapping | str | Path) -> ShellSpec:
-    """A :class:`ShellSpec` from itself, a shipped name (:data:`SHELLS`), a path to a TOML
-    spec file or its parsed data."""
+    """A :class:`ShellSpec` from itself, a shipped name (:data:`~blobtree.models.spec.SHELLS`), a
+    path to a TOML spec file or its parsed data."""
     if isinstance(spec, ShellSpec):
         return spec
     if isinstance(spec, Mapping):

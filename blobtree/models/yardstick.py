@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
+from ..helico import place
 from ..nodes import Blend, Node, Point
-from .helico import place
 
 #: Angle between consecutive generating surfaces: 116/6 degrees (Section 3.1).
 THETA_S = 116.0 / 6.0

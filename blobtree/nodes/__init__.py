@@ -5,17 +5,6 @@ registers it, and the engine, scene files and tests pick it up from the registry
 """
 
 from .affine import Rotate, Scale, Translate
-from .base import (
-    ISO,
-    REGISTRY,
-    Affine,
-    Node,
-    Operator,
-    Paint,
-    Primitive,
-    Unary,
-    check_points,
-)
 from .bend import Bend
 from .blend import Blend, blend
 from .color import Color
@@ -26,11 +15,13 @@ from .difference import Difference, difference
 from .ellipsoid import Ellipsoid
 from .gradient_blend import GradientBlend, gradient_blend
 from .intersection import Intersection, intersection
+from .kinds import Affine, Operator, Paint, Primitive, Unary
+from .node import ISO, REGISTRY, Node, check_points
 from .point import Point
 from .ring import Disc, Torus
 from .super_blend import SuperBlend, super_blend
 from .taper import Taper
-from .texture_map import Texture
+from .texture import Texture
 from .twist import Twist
 from .union import Union, union
 from .warp import Warp

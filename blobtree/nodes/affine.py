@@ -10,7 +10,8 @@ import numpy as np
 
 from .. import geometry as geo
 from ..checks import MAX_SIZE, MIN_SIZE, Vec3, angle
-from .base import Affine, Node, register
+from .kinds import Affine
+from .node import Node, register
 from .params import Axis, Param
 
 
@@ -31,6 +32,7 @@ class Translate(Affine):
 
     @cached_property
     def matrix(self):
+        """The 3x4 map x -> x + offset."""
         return geo.affine(np.eye(3), self.offset)
 
 
@@ -54,6 +56,7 @@ class Scale(Affine):
 
     @cached_property
     def matrix(self):
+        """The 3x4 map x -> diag(factors) x."""
         return geo.affine(np.diag(self.factors))
 
 
@@ -67,4 +70,5 @@ class Rotate(Affine):
 
     @cached_property
     def matrix(self):
+        """The 3x4 rotation by ``degrees`` about ``axis`` (right-hand rule)."""
         return geo.affine(geo.rotation_matrix(self.axis, self.degrees))

@@ -9,9 +9,11 @@ import numpy as np
 
 from .. import geometry as geo
 from ..checks import AXES, Number, positive
-from ..jit import kernel
-from . import kmath
-from .base import Layout, WarpKernels, register
+from ..runtime.jit import kernel
+from . import kernel_math
+from .kernels import WarpKernels
+from .layout import Layout
+from .node import register
 from .params import Param
 from .warp import PERM_END, Warp
 
@@ -29,12 +31,12 @@ def bend_map(p, o, X, Y, Z):
     (no sine or cosine: sin phi = u / rho, cos phi = v / rho); before it (phi <= 0) it stays;
     past its end angle theta = k length it continues straight along the end tangent (sin theta,
     cos theta are parameters).  All three are computed and one is selected, without branches,
-    so that a loop over many points vectorises (``kmath.atan2`` likewise)."""
+    so that a loop over many points vectorises (``kernel_math.atan2`` likewise)."""
     k, length, sn, cs = p[o + K], p[o + LENGTH], p[o + END_SIN], p[o + END_COS]
     ik = 1.0 / k
     end = k * length
     u, v = X, ik - Y
-    phi = kmath.atan2(u, v)
+    phi = kernel_math.atan2(u, v)
     rho2 = u * u + v * v
     rho = math.sqrt(rho2)
     arc = (phi > 0.0) & (phi < end)
@@ -81,11 +83,13 @@ class Bend(Warp):
 
     @cached_property
     def index(self) -> tuple[int, int, int]:
+        """(axis, the axis bent toward, the third) as indices."""
         a, b = geo.AXES[self.axis], geo.AXES[self.toward]
         return a, b, 3 - a - b
 
     @cached_property
     def sign(self) -> float:
+        """+1 for a bend toward +``toward``, -1 toward -``toward``."""
         return 1.0 if self.degrees > 0 else -1.0
 
     @cached_property

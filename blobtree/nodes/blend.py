@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
-from ..jit import kernel
-from .base import Node, Operator, OperatorKernels, register, weighted_color
+from ..runtime.jit import kernel
+from .kernels import OperatorKernels
+from .kinds import Operator, operator_function
+from .node import register
+from .reference import weighted_color
 
 
 @kernel
@@ -49,6 +52,6 @@ class Blend(Operator):
         return f.sum(axis=0), g.sum(axis=0), weighted_color(f, c)
 
 
-def blend(*nodes: Node) -> Blend:
-    """B_1 + B_2 + ... (sum)."""
-    return Blend(*nodes)
+blend = operator_function(
+    Blend,
+    """B_1 + B_2 + ... (sum).""")

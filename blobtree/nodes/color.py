@@ -5,8 +5,11 @@ from __future__ import annotations
 import numpy as np
 
 from ..checks import RGB
-from ..jit import kernel
-from .base import Layout, Paint, PaintKernels, register
+from ..runtime.jit import kernel
+from .kernels import PaintKernels
+from .kinds import Paint
+from .layout import Layout
+from .node import register
 from .params import Param
 
 LAYOUT = Layout(0, rgb=3)

@@ -7,20 +7,15 @@ import math
 import numpy as np
 
 from .. import geometry as geo
-from .. import texture as tex
 from ..checks import Vec3, positive
 from ..fields import SLOPE
-from ..jit import kernel
-from . import kmath
-from .base import (
-    FALLOFF,
-    FALLOFF_PARAM,
-    GEOMETRY,
-    Layout,
-    Primitive,
-    PrimitiveKernels,
-    register,
-)
+from ..runtime.jit import kernel
+from ..texture import mapping as tex
+from . import kernel_math
+from .kernels import PrimitiveKernels
+from .kinds import FALLOFF_PARAM, Primitive
+from .layout import FALLOFF, GEOMETRY, Layout
+from .node import register
 from .params import Param
 
 LAYOUT = Layout(GEOMETRY, a=3, b=3, radius_a=1, radius_b=1, frame=6)
@@ -50,7 +45,7 @@ def cone_s(p, o, qx, qy, qz):
 
 @kernel
 def cone_uv(p, o, qx, qy, qz):
-    return kmath.axis_uv(p, o + A, o + FRAME, qx, qy, qz, True)
+    return kernel_math.axis_uv(p, o + A, o + FRAME, qx, qy, qz, True)
 
 
 @kernel
@@ -73,7 +68,7 @@ def cone_lipschitz(p, o, lip, cx, cy, cz, hx, hy, hz, r):
     rlo, rhi = min(r0, r1), max(r0, r1)
     # lip = SLOPE (1 + |dR| / L) / min(ra, rb) * |A|: rescale its 1 / min(ra, rb) to 1 / rlo
     fid = int(p[o + FALLOFF])
-    return lip * kmath.slope_at(fid, max(d - rho, 0.0) / rhi, (d + rho) / rlo) \
+    return lip * kernel_math.slope_at(fid, max(d - rho, 0.0) / rhi, (d + rho) / rlo) \
         * min(ra, rb) / rlo
 
 
@@ -126,7 +121,7 @@ class Cone(Primitive):
         return d2 / rt**2, ds
 
     def uv(self, q):
-        """u = angle around the axis (from :func:`texture.perpendicular_frame`), v = t."""
+        """u = angle around the axis (from ``texture.mapping.perpendicular_frame``), v = t."""
         ab = self.b - self.a
         t = np.clip((q - self.a) @ ab / (ab @ ab), 0.0, 1.0)
         d = q - (self.a + t[:, None] * ab)
@@ -161,8 +156,10 @@ class Segment(Cone):
 
     @property
     def radius_a(self) -> float:
+        """The field radius at ``a``: a segment's radius is the same at both ends."""
         return self.radius
 
     @property
     def radius_b(self) -> float:
+        """The field radius at ``b`` (= ``radius``)."""
         return self.radius

@@ -11,23 +11,18 @@ the max over the groups (and over children in no group, alone).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 
 import numpy as np
 
 from ..checks import Number
-from ..jit import kernel
-from .base import (
-    BOUND,
-    Node,
-    Operator,
-    OperatorKernels,
-    pick,
-    register,
-    weighted_color,
-)
-from .kmath import power, root
+from ..runtime.jit import kernel
+from .kernel_math import power, root
+from .kernels import OperatorKernels
+from .kinds import Operator, operator_function
+from .layout import BOUND
+from .node import register
 from .params import LARGEST_N, Groups, Pairs, Param
+from .reference import pick, weighted_color
 
 
 @kernel
@@ -283,9 +278,8 @@ class ControlledBlend(Operator):
         return cf.max(axis=0), pick(k, np.stack(cand_g)), pick(k, np.stack(cand_c))
 
 
-def controlled_blend(nodes: Sequence[Node], pairs: Sequence[Sequence[int]] = (),
-                     groups: Sequence = (), n: float = 1.0) -> ControlledBlend:
-    """Controlled blend, Eq. 6: only the listed pairs (i, j) of ``nodes`` blend (f_i + f_j), and
+controlled_blend = operator_function(
+    ControlledBlend,
+    """Controlled blend, Eq. 6: only the listed pairs (i, j) of the children blend (f_i + f_j), and
     the listed groups, each by the super-elliptic blend (Eq. 4) of exponent ``n`` or its own:
-    ``groups=[(0, 1, 2), ((2, 3), 4.0)]``."""
-    return ControlledBlend(*nodes, pairs=pairs, groups=groups, n=n)
+    ``groups=[(0, 1, 2), ((2, 3), 4.0)]``.  The children may come as one list.""")

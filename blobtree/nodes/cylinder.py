@@ -7,11 +7,14 @@ import math
 import numpy as np
 
 from .. import geometry as geo
-from .. import texture as tex
 from ..checks import Vec3, positive
-from ..jit import kernel
-from . import kmath
-from .base import FALLOFF_PARAM, GEOMETRY, RADIUS, Layout, Primitive, PrimitiveKernels, register
+from ..runtime.jit import kernel
+from ..texture import mapping as tex
+from . import kernel_math
+from .kernels import PrimitiveKernels
+from .kinds import FALLOFF_PARAM, Primitive
+from .layout import GEOMETRY, RADIUS, Layout
+from .node import register
 from .params import Param
 
 LAYOUT = Layout(GEOMETRY, a=3, b=3, cylinder_radius=1, frame=6)
@@ -31,13 +34,13 @@ def cylinder_s(p, o, qx, qy, qz):
     rho = math.sqrt(rx * rx + ry * ry + rz * rz)
     sc = min(rho, p[o + CYL]) / rho if rho > 0.0 else 0.0
     t = min(max(hh, 0.0), length)
-    return kmath.squared(qx - (ax + t * ux + sc * rx), qy - (ay + t * uy + sc * ry),
-                         qz - (az + t * uz + sc * rz), p[o + RADIUS])
+    return kernel_math.squared(qx - (ax + t * ux + sc * rx), qy - (ay + t * uy + sc * ry),
+                               qz - (az + t * uz + sc * rz), p[o + RADIUS])
 
 
 @kernel
 def cylinder_uv(p, o, qx, qy, qz):
-    return kmath.axis_uv(p, o + A, o + FRAME, qx, qy, qz, False)
+    return kernel_math.axis_uv(p, o + A, o + FRAME, qx, qy, qz, False)
 
 
 @register

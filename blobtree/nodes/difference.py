@@ -6,15 +6,18 @@ from __future__ import annotations
 import numpy as np
 
 from ..checks import Number
-from ..jit import kernel
-from . import kmath
-from .base import BOUND, ISO, Node, Operator, OperatorKernels, register
+from ..runtime.jit import kernel
+from . import kernel_math
+from .kernels import OperatorKernels
+from .kinds import Operator, operator_function
+from .layout import BOUND
+from .node import ISO, register
 from .params import Param
 
 
 @kernel
 def rounded_min(x, y, r):
-    """min(x, y) - r h^2 / 4 with h = max(r - |x - y|, 0) / r (a polynomial smooth minimum, 0 <=
+    """min(x, y) - r h^2 / 4 with h = max(r - ``|x - y|``, 0) / r (a polynomial smooth minimum, 0 <=
     h <= 1) and the weights of x and y in its gradient, (1 - h / 2, h / 2) where x is the smaller,
     summing to 1; r = 0 is the plain minimum."""
     h = max(r - abs(x - y), 0.0) / r if r > 0.0 else 0.0
@@ -54,7 +57,7 @@ def difference_bound(vs, b, k, p, o, reach):
     result stays below ISO as far as any term does (1 - f_j as far as f_j stays above)."""
     r = p[o]
     f, bound = vs[b, 0], vs[b, BOUND]
-    below, above = kmath.safe_distances(vs, b)
+    below, above = kernel_math.safe_distances(vs, b)
     for j in range(b + 1, b + k):
         y, bound_y = 1.0 - vs[j, 0], vs[j, BOUND]
         if y - bound_y * reach >= f + bound * reach + r:
@@ -64,7 +67,7 @@ def difference_bound(vs, b, k, p, o, reach):
         else:
             bound = max(bound, bound_y)
         f = rounded_min(f, y, r)[0]
-        below_j, above_j = kmath.safe_distances(vs, j)
+        below_j, above_j = kernel_math.safe_distances(vs, j)
         # the (rounded) min stays above ISO as far as all terms do, if sharp (rounding lowers it)
         below, above = max(below, above_j), min(above, below_j)
     return bound, below, above if r == 0.0 else 0.0
@@ -85,11 +88,11 @@ class Difference(Operator):
     """B_1 - B_2 - ...: max(0, min(f_1, 2*0.5 - f_2, ...)); the box is B_1's.
 
     ``smooth`` > 0 rounds the edges where the surfaces meet: each min becomes the polynomial
-    smooth minimum ``min(x, y) - smooth h^2 / 4``, h = max(smooth - |x - y|, 0) / smooth, which
-    is at most the min (it only removes material, within the band |x - y| < smooth), C1, and has
+    smooth minimum ``min(x, y) - smooth h^2 / 4``, h = max(smooth - ``|x - y|``, 0) / smooth, which
+    is at most the min (it only removes material, within the band ``|x - y|`` < smooth), C1, and has
     gradient weights in [0, 1] summing to 1, so the Lipschitz bound stays the larger child's.  A
     knife edge of the sharp difference (two surfaces meeting at a small angle) loses the part
-    thinner than about smooth / (2 |grad f|), which is what keeps a carved lip printable and
+    thinner than about smooth / (2 ``|grad f|``), which is what keeps a carved lip printable and
     sampled whole by the mesher.  0 (the default) is the paper's CSG difference.
 
     Under specialisation a zero first child makes it zero, but a zero subtrahend is kept: it
@@ -133,7 +136,7 @@ class Difference(Operator):
         return boxes[0]
 
 
-def difference(*nodes: Node, smooth: float = 0.0) -> Difference:
+difference = operator_function(
+    Difference,
     """B_1 - B_2 - ... (CSG difference); ``smooth`` > 0 rounds its edges (a band of field values,
-    see :class:`Difference`)."""
-    return Difference(*nodes, smooth=smooth)
+    see :class:`Difference`).""")

@@ -7,20 +7,15 @@ import math
 
 import numpy as np
 
-from .. import texture as tex
 from ..checks import MAX_SIZE, MIN_SIZE, Vec3
 from ..fields import SLOPE
-from ..jit import kernel
-from . import kmath
-from .base import (
-    FALLOFF,
-    FALLOFF_PARAM,
-    GEOMETRY,
-    Layout,
-    Primitive,
-    PrimitiveKernels,
-    register,
-)
+from ..runtime.jit import kernel
+from ..texture import mapping as tex
+from . import kernel_math
+from .kernels import PrimitiveKernels
+from .kinds import FALLOFF_PARAM, Primitive
+from .layout import FALLOFF, GEOMETRY, Layout
+from .node import register
 from .params import Param
 
 # Where the ellipsoid's own numbers sit in the program, after the primitive header.
@@ -44,7 +39,7 @@ def ellipsoid_uv(p, o, qx, qy, qz):
     ux, uy, uz = (qx - p[c]) / p[r], (qy - p[c + 1]) / p[r + 1], (qz - p[c + 2]) / p[r + 2]
     n = math.sqrt(ux * ux + uy * uy + uz * uz)
     cos_t = min(max(uy / n if n > 0.0 else 0.0, -1.0), 1.0)
-    return kmath.turn(-uz, ux), math.acos(cos_t) / math.pi
+    return kernel_math.turn(-uz, ux), math.acos(cos_t) / math.pi
 
 
 @kernel
@@ -65,18 +60,18 @@ def ellipsoid_lipschitz(p, o, lip, cx, cy, cz, hx, hy, hz, r):
         uc2 += off * off
     reach = r / min(p[rr], p[rr + 1], p[rr + 2])
     uc = math.sqrt(uc2)
-    return lip * kmath.slope_at(int(p[o + FALLOFF]), max(math.sqrt(near2), uc - reach),
-                                min(math.sqrt(far2), uc + reach))
+    return lip * kernel_math.slope_at(int(p[o + FALLOFF]), max(math.sqrt(near2), uc - reach),
+                                      min(math.sqrt(far2), uc + reach))
 
 
 @kernel
 def ellipsoid_rise(p, o, lox, loy, loz, hix, hiy, hiz, dx, dy, dz, spread):
-    """How fast the field can rise along a cone of rays (``kmath.quadric_rise`` with
+    """How fast the field can rise along a cone of rays (``kernel_math.quadric_rise`` with
     k_i = 1 / R_i^2)."""
     c, r = o + CENTER, o + RADII
-    return kmath.quadric_rise(p, o, p[c], p[c + 1], p[c + 2], 1.0 / p[r] ** 2,
-                              1.0 / p[r + 1] ** 2, 1.0 / p[r + 2] ** 2, lox, loy, loz, hix, hiy,
-                              hiz, dx, dy, dz, spread)
+    return kernel_math.quadric_rise(p, o, p[c], p[c + 1], p[c + 2], 1.0 / p[r] ** 2,
+                                    1.0 / p[r + 1] ** 2, 1.0 / p[r + 2] ** 2, lox, loy, loz,
+                                    hix, hiy, hiz, dx, dy, dz, spread)
 
 
 @register

@@ -35,10 +35,14 @@ import math
 import numpy as np
 
 from ..checks import Number
-from ..jit import kernel
-from . import kmath
-from .base import BOUND, ISO, TIE, Node, Operator, OperatorKernels, register
+from ..runtime.jit import kernel
+from . import kernel_math
+from .kernels import OperatorKernels
+from .kinds import Operator, operator_function
+from .layout import BOUND
+from .node import ISO, Node, register
 from .params import Param
+from .reference import TIE
 
 #: The automatic step is at least this fraction of the smaller child's box diagonal.
 MIN_STEP = 1e-3
@@ -149,7 +153,7 @@ def gradient_bound(vs, b, k, p, o, reach):
     bound = (la + lb) / (1.0 - 2.0 * contact) + m * p[o + SLOPE_W] * turn
     total, slope = vs[b, 0] + vs[b + 4, 0], la + lb
     below = (ISO - total) / slope if total < ISO and slope > 0.0 else 0.0
-    above = max(kmath.safe_distances(vs, b)[1], kmath.safe_distances(vs, b + 4)[1])
+    above = max(kernel_math.safe_distances(vs, b)[1], kernel_math.safe_distances(vs, b + 4)[1])
     return bound, below, above
 
 
@@ -228,9 +232,6 @@ class GradientBlend(Operator):
                 for n in (c, c.translate(-s, 0, 0), c.translate(0, -s, 0), c.translate(0, 0, -s))]
         return list(self.__dict__["_shifted"])
 
-    def _lipschitz(self) -> float:
-        return self.factor * 4.0 * sum(c.lipschitz() for c in self.children)
-
     def _ref(self, P, look=None):
         s, floor, power = self.used_step, self.used_floor, self.power
         parts = []
@@ -274,8 +275,7 @@ class GradientBlend(Operator):
         return value, grad, color
 
 
-def gradient_blend(a: Node, b: Node, step: float = 0.0, floor: float = 0.0,
-                   power: float = 1.0, contact: float = 0.0) -> GradientBlend:
+gradient_blend = operator_function(
+    GradientBlend,
     """Gradient-based blend of a and b (Gourmel et al. 2013, adapted): blended where their
-    surfaces cross, a union where their gradients are parallel or opposed."""
-    return GradientBlend(a, b, step=step, floor=floor, power=power, contact=contact)
+    surfaces cross, a union where their gradients are parallel or opposed.""")

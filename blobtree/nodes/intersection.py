@@ -3,19 +3,22 @@
 from __future__ import annotations
 
 from .. import geometry as geo
-from ..jit import kernel
-from . import kmath
-from .base import Node, Operator, OperatorKernels, pick, register, winner
+from ..runtime.jit import kernel
+from . import kernel_math
+from .kernels import OperatorKernels
+from .kinds import Operator, operator_function
+from .node import register
+from .reference import pick, winner
 
 
 @kernel
 def intersection_combine(vs, b, k, p, o, mode):
-    kmath.select(vs, b, k, False)
+    kernel_math.select(vs, b, k, False)
 
 
 @kernel
 def intersection_bound(vs, b, k, p, o, reach):
-    return kmath.select_bound(vs, b, k, reach, False)
+    return kernel_math.select_bound(vs, b, k, reach, False)
 
 
 @kernel
@@ -46,6 +49,6 @@ class Intersection(Operator):
         return geo.box_intersection(boxes)
 
 
-def intersection(*nodes: Node) -> Intersection:
-    """B_1 n B_2 n ... (min)."""
-    return Intersection(*nodes)
+intersection = operator_function(
+    Intersection,
+    """B_1 n B_2 n ... (min).""")

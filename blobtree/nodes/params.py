@@ -15,8 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from .. import texture as tex
 from ..checks import AXES, Kind, Number, Vec3, frozen, is_vector, short_repr
+from ..texture import mapping as tex
 
 #: Marks a parameter without a default.
 REQUIRED: Any = object()
@@ -146,7 +146,7 @@ class Image(Kind):
 @dataclass(frozen=True)
 class Mapping(Kind):
     """A texture mapping: "primitive" (field-interpolated) or a
-    :class:`blobtree.texture.HelicoSurface` (bounding surface)."""
+    :class:`blobtree.texture.mapping.HelicoSurface` (bounding surface)."""
 
     schema = "mapping ('primitive' or {\"helico\": {...}})"
 

@@ -7,20 +7,14 @@ import math
 import numpy as np
 
 from .. import geometry as geo
-from .. import texture as tex
 from ..checks import Vec3, positive
-from ..jit import kernel
-from . import kmath
-from .base import (
-    FALLOFF,
-    FALLOFF_PARAM,
-    GEOMETRY,
-    RADIUS,
-    Layout,
-    Primitive,
-    PrimitiveKernels,
-    register,
-)
+from ..runtime.jit import kernel
+from ..texture import mapping as tex
+from . import kernel_math
+from .kernels import PrimitiveKernels
+from .kinds import FALLOFF_PARAM, Primitive
+from .layout import FALLOFF, GEOMETRY, RADIUS, Layout
+from .node import register
 from .params import Param
 
 LAYOUT = Layout(GEOMETRY, center=3)
@@ -30,7 +24,7 @@ LAYOUT = Layout(GEOMETRY, center=3)
 @kernel
 def point_s(p, o, qx, qy, qz):
     c = o + CENTER
-    return kmath.squared(qx - p[c], qy - p[c + 1], qz - p[c + 2], p[o + RADIUS])
+    return kernel_math.squared(qx - p[c], qy - p[c + 1], qz - p[c + 2], p[o + RADIUS])
 
 
 @kernel
@@ -39,7 +33,7 @@ def point_uv(p, o, qx, qy, qz):
     dx, dy, dz = qx - p[c], qy - p[c + 1], qz - p[c + 2]
     r = math.sqrt(dx * dx + dy * dy + dz * dz)
     cos_t = min(max(dy / r if r > 0.0 else 0.0, -1.0), 1.0)
-    return kmath.turn(-dz, dx), math.acos(cos_t) / math.pi
+    return kernel_math.turn(-dz, dx), math.acos(cos_t) / math.pi
 
 
 @kernel
@@ -55,8 +49,8 @@ def point_lipschitz(p, o, lip, cx, cy, cz, hx, hy, hz, r):
         dc2 += off * off
     dc = math.sqrt(dc2)
     radius = p[o + RADIUS]
-    return lip * kmath.slope_at(int(p[o + FALLOFF]), max(math.sqrt(dmin2), dc - r) / radius,
-                                min(math.sqrt(dmax2), dc + r) / radius)
+    return lip * kernel_math.slope_at(int(p[o + FALLOFF]), max(math.sqrt(dmin2), dc - r) / radius,
+                                      min(math.sqrt(dmax2), dc + r) / radius)
 
 
 @kernel
@@ -66,13 +60,13 @@ def point_along(p, o, ox, oy, oz, dx, dy, dz, length):
     q(t) = w + t e about the centre, so s = u^2 + c with u = |e| (t - t_c) / R and c the squared
     perpendicular distance over R^2, and |df/dt| = 2 |e| / R |u| |f'(s)|: a function of |u| with
     one peak (``fields.falloff_peak``), so its maximum over the segment's range of |u| is at the
-    peak clamped to that range.  Never above |grad f| on the segment, and small where the segment
-    passes the primitive sideways."""
+    peak clamped to that range.  Never above ``|grad f|`` on the segment, and small where the
+    segment passes the primitive sideways."""
     c = o + CENTER
     ex = p[o] * dx + p[o + 1] * dy + p[o + 2] * dz
     ey = p[o + 4] * dx + p[o + 5] * dy + p[o + 6] * dz
     ez = p[o + 8] * dx + p[o + 9] * dy + p[o + 10] * dz
-    wx, wy, wz = kmath.map_point(p, o, ox, oy, oz)
+    wx, wy, wz = kernel_math.map_point(p, o, ox, oy, oz)
     wx, wy, wz = wx - p[c], wy - p[c + 1], wz - p[c + 2]
     e2 = ex * ex + ey * ey + ez * ez
     if e2 == 0.0:
@@ -90,18 +84,18 @@ def point_along(p, o, ox, oy, oz, dx, dy, dz, length):
     if a >= b:
         return 0.0
     fid = int(p[o + FALLOFF])
-    u = min(max(math.sqrt(kmath.fo_peak(fid, cc)), a), b)
-    return 2.0 * e / r * u * abs(kmath.fo_ds(fid, min(u * u + cc, 1.0)))
+    u = min(max(math.sqrt(kernel_math.fo_peak(fid, cc)), a), b)
+    return 2.0 * e / r * u * abs(kernel_math.fo_ds(fid, min(u * u + cc, 1.0)))
 
 
 @kernel
 def point_rise(p, o, lox, loy, loz, hix, hiy, hiz, dx, dy, dz, spread):
-    """How fast the field can rise along a cone of rays (``kmath.quadric_rise``, s = |q - c|^2
+    """How fast the field can rise along a cone of rays (``kernel_math.quadric_rise``, s = |q - c|^2
     / R^2): only as fast as they approach the centre."""
     c = o + CENTER
     k = 1.0 / (p[o + RADIUS] * p[o + RADIUS])
-    return kmath.quadric_rise(p, o, p[c], p[c + 1], p[c + 2], k, k, k, lox, loy, loz, hix, hiy,
-                              hiz, dx, dy, dz, spread)
+    return kernel_math.quadric_rise(p, o, p[c], p[c + 1], p[c + 2], k, k, k, lox, loy, loz,
+                                    hix, hiy, hiz, dx, dy, dz, spread)
 
 
 @register

@@ -8,11 +8,14 @@ import math
 import numpy as np
 
 from .. import geometry as geo
-from .. import texture as tex
 from ..checks import Vec3, positive
-from ..jit import kernel
-from . import kmath
-from .base import FALLOFF_PARAM, GEOMETRY, RADIUS, Layout, Primitive, PrimitiveKernels, register
+from ..runtime.jit import kernel
+from ..texture import mapping as tex
+from . import kernel_math
+from .kernels import PrimitiveKernels
+from .kinds import FALLOFF_PARAM, Primitive
+from .layout import GEOMETRY, RADIUS, Layout
+from .node import register
 from .params import Param
 
 LAYOUT = Layout(GEOMETRY, ring=1, center=3)
@@ -22,29 +25,30 @@ RING, CENTER = LAYOUT.offsets
 @kernel
 def torus_s(p, o, qx, qy, qz):
     c = o + CENTER
-    dx, dy, dz = kmath.ring_delta(qx - p[c], qy - p[c + 1], qz - p[c + 2], p[o + RING], False)
-    return kmath.squared(dx, dy, dz, p[o + RADIUS])
+    dx, dy, dz = kernel_math.ring_delta(qx - p[c], qy - p[c + 1], qz - p[c + 2], p[o + RING], False)
+    return kernel_math.squared(dx, dy, dz, p[o + RADIUS])
 
 
 @kernel
 def disc_s(p, o, qx, qy, qz):
     c = o + CENTER
-    dx, dy, dz = kmath.ring_delta(qx - p[c], qy - p[c + 1], qz - p[c + 2], p[o + RING], True)
-    return kmath.squared(dx, dy, dz, p[o + RADIUS])
+    dx, dy, dz = kernel_math.ring_delta(qx - p[c], qy - p[c + 1], qz - p[c + 2], p[o + RING], True)
+    return kernel_math.squared(dx, dy, dz, p[o + RADIUS])
 
 
 @kernel
 def torus_uv(p, o, qx, qy, qz):
     c = o + CENTER
     dx, dy, dz = qx - p[c], qy - p[c + 1], qz - p[c + 2]
-    return kmath.turn(-dz, dx), kmath.turn(dy, math.sqrt(dx * dx + dz * dz) - p[o + RING])
+    rho = math.sqrt(dx * dx + dz * dz) - p[o + RING]
+    return kernel_math.turn(-dz, dx), kernel_math.turn(dy, rho)
 
 
 @kernel
 def disc_uv(p, o, qx, qy, qz):
     c = o + CENTER
     dx, dz = qx - p[c], qz - p[c + 2]
-    return kmath.turn(-dz, dx), min(math.sqrt(dx * dx + dz * dz) / p[o + RING], 1.0)
+    return kernel_math.turn(-dz, dx), min(math.sqrt(dx * dx + dz * dz) / p[o + RING], 1.0)
 
 
 class _Ring(Primitive):
@@ -55,6 +59,7 @@ class _Ring(Primitive):
 
     @property
     def ring(self) -> float:
+        """The radius of the skeleton circle (torus) or disc."""
         raise NotImplementedError
 
     def pack(self):

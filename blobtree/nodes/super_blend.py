@@ -7,10 +7,14 @@ import math
 import numpy as np
 
 from ..checks import Number
-from ..jit import kernel
-from .base import BOUND, Node, Operator, OperatorKernels, register, weighted_color
-from .kmath import by_squaring, norm_of, power, root
+from ..runtime.jit import kernel
+from .kernel_math import by_squaring, norm_of, power, root
+from .kernels import OperatorKernels
+from .kinds import Operator, operator_function
+from .layout import BOUND
+from .node import register
 from .params import LARGEST_N, Param
+from .reference import weighted_color
 
 
 @kernel(inline="always")
@@ -143,6 +147,6 @@ class SuperBlend(Operator):
         return value, np.where((value > 0.0)[:, None], grad, 0.0), weighted_color(w, c)
 
 
-def super_blend(*nodes: Node, n: float = 2.0) -> SuperBlend:
-    """Ricci super-elliptic blend, Eq. 4, n-ary."""
-    return SuperBlend(*nodes, n=n)
+super_blend = operator_function(
+    SuperBlend,
+    """Ricci super-elliptic blend, Eq. 4, n-ary.""")

@@ -7,8 +7,10 @@ from functools import cached_property
 import numpy as np
 
 from ..checks import AXES, MAX_SIZE, Number
-from ..jit import kernel
-from .base import Layout, WarpKernels, register
+from ..runtime.jit import kernel
+from .kernels import WarpKernels
+from .layout import Layout
+from .node import register
 from .params import Param
 from .warp import PERM_END, AxialWarp
 
@@ -50,11 +52,13 @@ class Taper(AxialWarp):
 
     @cached_property
     def t_range(self) -> tuple[float, float]:
+        """The child's extent along the axis: the taper is clamped to it."""
         a = self.index[0]
         return float(self.child_box[0][a]), float(self.child_box[1][a])
 
     @cached_property
     def s_range(self) -> tuple[float, float]:
+        """The smallest and largest scale factor 1 + rate t over :attr:`t_range`."""
         s = [1.0 + self.rate * t for t in self.t_range]
         return min(s), max(s)
 

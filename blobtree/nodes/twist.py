@@ -8,8 +8,10 @@ from functools import cached_property
 import numpy as np
 
 from ..checks import AXES, angle
-from ..jit import kernel
-from .base import Layout, WarpKernels, register
+from ..runtime.jit import kernel
+from .kernels import WarpKernels
+from .layout import Layout
+from .node import register
 from .params import Param
 from .warp import PERM_END, AxialWarp
 
@@ -43,6 +45,7 @@ class Twist(AxialWarp):
 
     @cached_property
     def k(self) -> float:
+        """The twist rate in radians per unit length."""
         return math.radians(self.degrees_per_unit)
 
     def pack(self):

@@ -2,19 +2,22 @@
 
 from __future__ import annotations
 
-from ..jit import kernel
-from . import kmath
-from .base import Node, Operator, OperatorKernels, pick, register, winner
+from ..runtime.jit import kernel
+from . import kernel_math
+from .kernels import OperatorKernels
+from .kinds import Operator, operator_function
+from .node import register
+from .reference import pick, winner
 
 
 @kernel
 def union_combine(vs, b, k, p, o, mode):
-    kmath.select(vs, b, k, True)
+    kernel_math.select(vs, b, k, True)
 
 
 @kernel
 def union_bound(vs, b, k, p, o, reach):
-    return kmath.select_bound(vs, b, k, reach, True)
+    return kernel_math.select_bound(vs, b, k, reach, True)
 
 
 @kernel
@@ -42,6 +45,6 @@ class Union(Operator):
         return f.max(axis=0), pick(i, g), pick(i, c)
 
 
-def union(*nodes: Node) -> Union:
-    """B_1 U B_2 U ... (max)."""
-    return Union(*nodes)
+union = operator_function(
+    Union,
+    """B_1 U B_2 U ... (max).""")

@@ -14,7 +14,9 @@ from typing import ClassVar
 import numpy as np
 
 from .. import geometry as geo
-from .base import DEFAULT_COLOR, Layout, Unary
+from .kinds import Unary
+from .layout import Layout
+from .node import DEFAULT_COLOR
 
 #: A warp's own parameters start after its signed permutation.
 PERM_END = 9
@@ -24,7 +26,7 @@ class Warp(Unary):
     """A global deformation as a query-point map.  A type supplies ``canonical`` (the signed
     permutation to its canonical axes), ``warp_points(P) -> (Q, J)`` (reference, J = dQ/dP of
     shape (N, 3, 3)), ``_deformed_box`` (the child's box under the forward deformation),
-    ``stretch`` (a bound on |J|), ``LAYOUT`` and ``pack``.  The field is 0 outside ``own_box``.
+    ``stretch`` (a bound on ``|J|``), ``LAYOUT`` and ``pack``.  The field is 0 outside ``own_box``.
     """
 
     KIND = "warp"
@@ -40,10 +42,13 @@ class Warp(Unary):
         raise NotImplementedError
 
     def warp_points(self, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The warp's query map at (N, 3) points: the points in the child's coordinates and the
+        (N, 3, 3) Jacobians of the map."""
         raise NotImplementedError
 
     @cached_property
     def child_box(self) -> geo.Box:
+        """The child's own bounding box (zeros when it is empty)."""
         lo, hi = self.child.box(geo.IDENTITY)
         if geo.is_empty((lo, hi)):
             return np.zeros(3), np.zeros(3)

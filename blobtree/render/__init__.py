@@ -19,8 +19,8 @@ import numpy as np
 from ..checks import Choice
 from ..engine.program import program_of
 from ..nodes import Point
-from ..parallel import parallel_for
-from ..parallel import threads as parallel_threads
+from ..runtime.threads import parallel_for
+from ..runtime.threads import threads as parallel_threads
 from .camera import Camera, seen_camera
 from .checkpoint import Checkpoint, job_key
 from .image import save_image
@@ -93,14 +93,14 @@ def render(tree, width: int, height: int, camera: Camera | None = None,
 
     ``camera`` defaults to a three-quarter view framing the whole surface; ``lights`` to one key
     light; ``samples`` rays per pixel (jittered strata, reproducible); ``look`` one of
-    :data:`LOOKS` (``"studio"``: soft backdrop, soft shadows, ambient occlusion; ``"glossy"``:
+    ``LOOKS`` (``"studio"``: soft backdrop, soft shadows, ambient occlusion; ``"glossy"``:
     the same, polished; ``"paper"``: the plain style of the paper's figures); ``background``, an
     RGB triple in [0, 1], replaces the look's backdrop by that plain colour; ``progress`` shows a
-    bar over tiles of side ``tile`` (default :func:`tile_side`'s; the rays of each 8x8-pixel
+    bar over tiles of side ``tile`` (default ``tile_side``'s; the rays of each 8x8-pixel
     cone are traced together, so a tile side that is not a multiple of 8 traces the cones on its
     edges again for each tile that touches them; the pixels are the same); ``threads`` (default:
     numba's thread count) render tiles side by side;
-    ``shading`` overrides any field of :class:`RenderSettings` the look sets (``ambient``,
+    ``shading`` overrides any field of :class:`~blobtree.RenderSettings` the look sets (``ambient``,
     ``specular``, ``shininess``, ``occlusion``, ``light_radius``, ``sky``...) and the jitter
     ``seed``.
 
@@ -108,7 +108,7 @@ def render(tree, width: int, height: int, camera: Camera | None = None,
     and yields (rect, pixels) as they finish (``blobtree.distributed`` plugs in a Dask cluster
     here; the bytes are the same).  ``checkpoint`` (a directory) keeps each finished tile there;
     ``resume=True`` reuses the tiles a previous, interrupted run of the same job left there (see
-    :class:`blobtree.render.checkpoint.Checkpoint`).
+    ``blobtree.render.checkpoint.Checkpoint``).
     """
     values = dict(LOOKS[Choice(tuple(LOOKS)).check("look", look)])
     if background is not None:

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..files import atomic_path
+from ..output import atomic_path
 
 if TYPE_CHECKING:
     from .camera import Camera

@@ -11,8 +11,8 @@ from ..checks import Number
 from ..engine import interp
 from ..engine.batch import SUB, eval_rows
 from ..engine.specialize import specialize
-from ..jit import kernel
-from ..nodes import kmath
+from ..nodes import kernel_math
+from ..runtime.jit import kernel
 from .camera import Camera, as_color, as_vec3
 from .trace import LOW, PEAK, RISE, clip_box, trace_packet
 
@@ -116,7 +116,7 @@ def _occlusions(code, params, boxes, local, llo, lhi, n, rays, O, D, look, surf,
                 tmp):
     """Ambient occlusion in [0, 1] at every hit of the packet, into column OCC of the surface
     table, from the field alone: a lone surface falls off along its normal as 0.5 - slope * d
-    (slope = |grad f| at the hit), so whatever the samples at d = radius * k /
+    (slope = ``|grad f|`` at the hit), so whatever the samples at d = radius * k /
     OCCLUSION_SAMPLES exceed that by is other surface nearby (a crease, the inside of the
     aperture); nearer samples weigh more.  The samples in the local program's box [llo, lhi]
     are evaluated on it, the rest on the full program, a batch at a time
@@ -165,7 +165,7 @@ def _occlusions(code, params, boxes, local, llo, lhi, n, rays, O, D, look, surf,
 def penumbra(code, params, boxes, x, y, z, t, light_tan, vstack, pstack):
     """How much of an area light of angular radius atan(light_tan) a shadow ray that missed
     still sees, from the point (x, y, z) at distance t where it passed nearest another surface:
-    that surface lies about d = (0.5 - f) / |grad f| away (the field's first-order Taylor
+    that surface lies about d = (0.5 - f) / ``|grad f|`` away (the field's first-order Taylor
     estimate), and the light's disc, t * light_tan wide there, is seen in full once d exceeds
     it (the penumbra of an area light, estimated from one ray)."""
     interp.eval_point(code, params, boxes, x, y, z, 1, vstack, pstack)  # value and gradient
@@ -196,7 +196,7 @@ T, T_END, T1, T0, EPS, OUT, SPLIT, HIT, INSIDE, REACHED = range(10)
 #: values then differ by less than 1e-12, against 8-bit steps of about 1/255).
 ALBEDO_SAME = 1e-13
 #: Columns of a packet's surface table: a hit's outward unit normal, linear albedo, colour, its
-#: albedo as the field gave it (sRGB, clamped to [0, 1]), |grad f| there and its ambient
+#: albedo as the field gave it (sRGB, clamped to [0, 1]), ``|grad f|`` there and its ambient
 #: occlusion.
 NX, NY, NZ, AR, AG, AB, CR, CG, CB, SR, SG, SB, SLOPE, OCC = range(14)
 
@@ -264,7 +264,7 @@ def _add_light(lights, j, look, row, lx, ly, lz, vx, vy, vz, lit):
     if hn > 0.0:
         ndh = (row[NX] * hx + row[NY] * hy + row[NZ] * hz) / hn
         if ndh > 0.0:
-            spec = look[SPECULAR] * kmath.power(ndh, look[SHININESS])
+            spec = look[SPECULAR] * kernel_math.power(ndh, look[SHININESS])
     for c in range(3):
         row[CR + c] += lit * lights[j, 4 + c] * (row[AR + c] * ndl + spec)
 

@@ -20,7 +20,7 @@ from ..engine.batch import SUB as BATCH
 from ..engine.batch import point_rows, value_rows
 from ..engine.interp import COLUMNS
 from ..engine.specialize import specialize, specialize_work
-from ..jit import kernel
+from ..runtime.jit import kernel
 from .camera import Camera, as_color
 from .shade import (
     AMBIENT,

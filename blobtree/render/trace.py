@@ -29,7 +29,7 @@ import numpy as np
 
 from ..engine import interp
 from ..engine.batch import eval_rows
-from ..jit import kernel
+from ..runtime.jit import kernel
 
 ISO = 0.5
 #: Growth factor of a cone's candidate segment over its last step (the paper's c).

@@ -11,8 +11,10 @@ import math
 import numpy as np
 
 from ..fields import SLOPE_BY_ID, falloff, falloff_ds, falloff_peak
-from ..jit import kernel
-from .base import ABOVE, BELOW, BOUND, FALLOFF, ISO, MAP_NORM, TIE
+from ..runtime.jit import kernel
+from .layout import ABOVE, BELOW, BOUND, FALLOFF, MAP_NORM
+from .node import ISO
+from .reference import TIE
 
 fo = kernel(falloff)
 fo_ds = kernel(falloff_ds)
@@ -253,8 +255,8 @@ def texel(p, t, u, v):
 @kernel
 def axis_uv(p, a, e, qx, qy, qz, on_axis):
     """(u, v) around the axis a -> b (a at params[a:a + 3], b at [a + 3:a + 6]) with the
-    perpendicular frame e1, e2 at params[e:e + 6] (``texture.perpendicular_frame``): u is the
-    angle about the axis, v the clamped position along it.  The angle is measured from the
+    perpendicular frame e1, e2 at params[e:e + 6] (``texture.mapping.perpendicular_frame``): u is
+    the angle about the axis, v the clamped position along it.  The angle is measured from the
     closest axis point (``on_axis``) or from a."""
     ax, ay, az = p[a], p[a + 1], p[a + 2]
     ux, uy, uz = p[a + 3] - ax, p[a + 4] - ay, p[a + 5] - az

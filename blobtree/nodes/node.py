@@ -1,4 +1,4 @@
-"""The BlobTree's node types (paper Section 2.2): the registry, the base classes and the contract
+"""The BlobTree's node types (paper Section 2.2): the registry, the node value and the contract
 a node type fulfils.
 
 A node type is one class in one module of this package, registered with :func:`register`.  Its
@@ -29,17 +29,17 @@ import hashlib
 import inspect
 import weakref
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
 from functools import cached_property
 from typing import Any, ClassVar
 
 import numpy as np
 
 from .. import geometry as geo
-from ..checks import Choice, Vec3
-from ..fields import FALLOFFS, SLOPE, falloff_array
+from ..checks import Vec3
+from .kernels import OperatorKernels, PaintKernels, PrimitiveKernels, WarpKernels
 from .params import REQUIRED, Param
 
+#: The iso-value of every surface: inside is field >= ISO.
 ISO = 0.5
 DEFAULT_COLOR = (0.8, 0.8, 0.8)
 
@@ -51,120 +51,6 @@ MAX_DEPTH = 256
 #: Every node type by its scene-file name, in registration order.
 REGISTRY: dict[str, type[Node]] = {}
 _frozen_by: list[str] = []
-
-# ----- the program layout a primitive's kernels see (docs/engine.md) --------------------------
-#: params[o + MAP : o + MAP + 12]: the 3x4 map from the frame to the primitive's own coordinates
-MAP = 0
-#: params[o + RADIUS]: the field radius R; params[o + FALLOFF]: the falloff's id (fields.FALLOFFS)
-RADIUS, FALLOFF = 12, 13
-#: params[o + MAP_NORM]: the spectral norm of the map's linear part (a ball of radius r in the frame
-#: lies in a ball of radius MAP_NORM r in the primitive's own coordinates)
-MAP_NORM = 14
-#: params[o + FRAME_NORM] of a PUSHPT (entering a warp's frame): its 3x4 map's norm
-FRAME_NORM = 12
-#: the primitive's own parameters start here (see :class:`Layout`)
-GEOMETRY = 15
-
-
-class Layout:
-    """Named offsets of a node type's own parameters in the program, from ``start``.
-
-    ``Layout(GEOMETRY, a=3, b=3, radius_a=1)`` places a at start, b at start + 3, radius_a at
-    start + 6; ``.offsets`` gives those numbers for the kernels (module constants, so numba
-    compiles them in) and ``.pack(a=..., b=..., radius_a=...)`` the values in that order.
-    """
-
-    def __init__(self, start: int = 0, **widths: int) -> None:
-        self.start = start
-        self.widths = widths
-        offsets, at = [], start
-        for w in widths.values():
-            offsets.append(at)
-            at += w
-        self.offsets = tuple(offsets)
-        self.size = at - start
-
-    def pack(self, **values: Any) -> list[float]:
-        """The values flattened in layout order; each must have its declared width."""
-        if set(values) != set(self.widths):
-            raise TypeError(f"layout needs {sorted(self.widths)}, got {sorted(values)}")
-        out: list[float] = []
-        for name, width in self.widths.items():
-            flat = np.asarray(values[name], dtype=np.float64).reshape(-1)
-            if flat.size != width:
-                raise ValueError(f"layout field {name} has width {width}, got {flat.size}")
-            out.extend(float(v) for v in flat)
-        return out
-
-
-# ----- kernels a node type provides (numba functions, see docs/extending.md) --------------------
-@dataclass(frozen=True)
-class PrimitiveKernels:
-    """``s(p, o, qx, qy, qz) -> (s, ds/dqx, ds/dqy, ds/dqz)``: s = r^2 / R^2 at the local point q
-    (the field is the falloff of s); ``uv(p, o, qx, qy, qz) -> (u, v)`` its own texture
-    coordinates; optional ``lipschitz(p, o, lip, cx, cy, cz, hx, hy, hz, r)``: a bound on
-    |grad f| over the local region within the box of centre c, half extents h and within the
-    ball of centre c, radius r (``lip``: the global bound in the frame);
-    optional ``along(p, o, ox, oy, oz, dx, dy, dz, length)``: a bound on |df/dt| along a frame
-    segment, or -1 for none; optional ``rise(p, o, lox, loy, loz, hix, hiy, hiz, dx, dy, dz,
-    spread)``: a bound on how fast the field can rise (df/dt, not |df/dt|) anywhere in the frame
-    box [lo, hi] along any unit direction within distance ``spread`` of the unit vector d, or -1
-    for none (0 where the rays all move away from the skeleton: they only leave the primitive).
-    ``o`` is the primitive's params offset."""
-
-    s: Callable
-    uv: Callable
-    lipschitz: Callable | None = None
-    along: Callable | None = None
-    rise: Callable | None = None
-
-
-#: Columns of the value stack that, in the engine's bound pass (field only: the colour's columns
-#: are free there), hold a row's gradient bound over a region and the distances from the
-#: region's point over which its field surely stays below / above ISO, as an operator proved
-#: them (read by operators' ``bound`` kernels).
-BOUND, BELOW, ABOVE = 4, 5, 6
-
-
-#: Rows at the end of a batch's value stack (engine.batch.value_rows) past its depth, free for
-#: operators' ``rows`` kernels: whole rows of per-point scratch, so their loops run over the
-#: batch's points one step at a time and vectorise.
-ROWS_SCRATCH = 3
-
-
-@dataclass(frozen=True)
-class OperatorKernels:
-    """``combine(vs, b, k, p, o, mode)``: the operator over value-stack rows b .. b + k - 1 (field,
-    gradient, colour; see engine.interp), result in row b; optional ``rows(vs, b, k, p, o, nb)``:
-    field only over the rows of a batch of nb points (engine.batch), vectorisable (its last
-    ``ROWS_SCRATCH`` rows are scratch); optional
-    ``bound(vs, b, k, p, o, reach) -> (bound, below, above)``: from the children's fields at a
-    point of a region (vs[b + j, 0]) and their bounds over it (vs[b + j, BOUND], a region of
-    diameter ``reach``), a bound on |grad f| over the region, and how far from the point the
-    field surely stays below and above ISO (0: no more than its value and bound say); without
-    it the ``LIPSCHITZ`` rule applies.  A CSG operator uses the values to drop the bound of a
-    child that cannot set the result anywhere in the region, and its children's distances
-    (``kmath.safe_distances``): a min stays below ISO as far as any of its terms does."""
-
-    combine: Callable
-    rows: Callable | None = None
-    bound: Callable | None = None
-
-
-@dataclass(frozen=True)
-class WarpKernels:
-    """``map(p, o, X, Y, Z) -> (qx, qy, qz, J00, J01, J02, J10, ..., J22)``: the query map of the
-    warp in its canonical axes and its Jacobian, row by row."""
-
-    map: Callable
-
-
-@dataclass(frozen=True)
-class PaintKernels:
-    """``paint(p, o, px, py, pz, gx, gy, gz) -> (r, g, b)``: the colour of the subtree at a point
-    with field gradient g (frame coordinates)."""
-
-    paint: Callable
 
 
 def register(cls: type[Node]) -> type[Node]:
@@ -420,11 +306,11 @@ class Node:
         raise NotImplementedError
 
     def _lipschitz(self) -> float:
-        """A global bound on |grad f|."""
+        """A global bound on ``|grad f|``."""
         raise NotImplementedError
 
     def box(self, L: np.ndarray) -> geo.Box:
-        """:meth:`_box`, computed once per frame (a shared subtree is not walked again)."""
+        """``_box``, computed once per frame (a shared subtree is not walked again)."""
         memo = self.__dict__.setdefault("_box_memo", {})
         key = L.tobytes()
         if key not in memo:
@@ -435,7 +321,7 @@ class Node:
         return memo[key]
 
     def lipschitz(self) -> float:
-        """A global bound on |grad f| (computed once)."""
+        """A global bound on ``|grad f|`` (computed once)."""
         if "_lipschitz_memo" not in self.__dict__:
             self.__dict__["_lipschitz_memo"] = float(self._lipschitz())
         return self.__dict__["_lipschitz_memo"]
@@ -514,227 +400,3 @@ class Node:
             more = ", ..." if len(self.children) > 3 else ""
             args = inner + more + (", " + args if args else "")
         return f"{type(self).__name__}({args})"
-
-
-# ============================================================================================
-# Base classes of the four kinds with kernels, and of affine transforms
-# ============================================================================================
-
-FALLOFF_PARAM = Param("falloff", Choice(tuple(FALLOFFS)), "soft_object",
-                      "falloff name (fields.FALLOFFS)")
-
-
-class Primitive(Node):
-    """A skeletal primitive: field = falloff(s), s = r^2 / R^2 with r the distance to the
-    skeleton and R the field radius (0 for s >= 1).
-
-    A type supplies ``field_radius`` (R), ``LAYOUT`` and ``pack()`` (its parameters after the
-    header ``MAP, RADIUS, FALLOFF``), the reference ``_delta(q)`` (q minus the closest skeleton
-    point; or ``_s`` where R varies), ``uv``, ``_box`` and ``KERNELS``.
-    """
-
-    KIND = "primitive"
-    LAYOUT: ClassVar[Layout]
-
-    @property
-    def field_radius(self) -> float:
-        """R: the largest distance from the skeleton at which the field is non-zero."""
-        return self.radius
-
-    def pack(self) -> list[float]:
-        """The primitive's own parameters in the program (after the header), LAYOUT's order."""
-        raise NotImplementedError
-
-    def _delta(self, q: np.ndarray) -> np.ndarray:
-        """q minus its closest skeleton point."""
-        raise NotImplementedError
-
-    def _s(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """s = r^2 / R^2 and ds/dq."""
-        d = self._delta(q)
-        r2 = self.field_radius ** 2
-        return (d * d).sum(axis=1) / r2, 2.0 * d / r2
-
-    def _ref(self, P: np.ndarray, look: Any = None) -> Result:
-        s, ds = self._s(P)
-        f, df = falloff_array(self.falloff, s)
-        if look is None:
-            color = np.broadcast_to(np.asarray(DEFAULT_COLOR), P.shape).copy()
-        else:
-            color = look.paint(*self.uv(P))
-        return f, df[:, None] * ds, color
-
-    def uv(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The primitive's own 2D parameterisation at local points (field-interpolated
-        texturing, the paper's ref. [10])."""
-        raise NotImplementedError
-
-    def _lipschitz(self) -> float:
-        return SLOPE[self.falloff] / self.field_radius
-
-
-#: How zero children are treated when a program is specialised to a region (engine.specialize):
-#: "drop" (a zero changes nothing: remove it), "keep" (keep it as a ZERO instruction: its place or
-#: value matters) or "kill" (the operator is then zero everywhere in the region).
-ZERO_RULES = ("drop", "keep", "kill")
-#: How an operator's Lipschitz bound follows from its children's: their sum, their largest,
-#: their sum times the operator's first parameter (``op_params()[0]``, a factor it derives), or
-#: their n-norm (sum L_j^n)^(1/n) with n that first parameter (an operator that is the n-norm of
-#: its children's fields: |f(x) - f(y)| <= ||(f_j(x) - f_j(y))_j||_n by the triangle inequality).
-LIPSCHITZ_RULES = ("sum", "max", "scaled", "norm")
-
-
-class Operator(Node):
-    """An n-ary operator on child BlobTrees (postfix: its children are evaluated first).
-
-    Declares ``ZERO_FIRST`` / ``ZERO_REST`` (what a zero first / later child does under
-    specialisation, see :data:`ZERO_RULES`), ``LIPSCHITZ`` (:data:`LIPSCHITZ_RULES`),
-    ``ASSOCIATIVE`` (the compiler may regroup its children into a box hierarchy),
-    ``IDEMPOTENT`` (a child repeated verbatim may be evaluated once), ``STACK`` (value-stack
-    rows it needs beyond its children's, usually 0), ``SMOOTH`` (its gradient is continuous
-    where its children's are), ``WANTS_VALUES`` (its ``LIPSCHITZ`` rule is far looser than
-    its value-aware ``bound``: a program holding it takes the value-aware pass throughout) and
-    ``MONOTONE`` (how its field moves with its first child and with each later one: +1, it
-    never falls where that child's rises; -1, it never rises; 0, either way.  Its ``LIPSCHITZ``
-    rule then bounds how fast its field *rises* along a ray from how fast its children's rise or
-    fall, and a ray's bound leaves out the primitives it moves away from).
-    An operator of one child must be that child (specialisation relies on it).
-    """
-
-    KIND = "operator"
-    ARITY = (1, None)
-    ZERO_FIRST: ClassVar[str] = "drop"
-    ZERO_REST: ClassVar[str] = "drop"
-    LIPSCHITZ: ClassVar[str] = "sum"
-    ASSOCIATIVE: ClassVar[bool] = False
-    IDEMPOTENT: ClassVar[bool] = False
-    STACK: ClassVar[int] = 0
-    SMOOTH: ClassVar[bool] = False
-    WANTS_VALUES: ClassVar[bool] = False
-    MONOTONE: ClassVar[tuple[int, int]] = (0, 0)
-
-    def op_params(self) -> list[float]:
-        """The operator's parameters in the program (empty by default)."""
-        return []
-
-    def program_children(self) -> list[Node]:
-        """The children the program evaluates, in order (its combine kernel's rows): by
-        default the children, an idempotent operator's repeated ones once."""
-        if self.IDEMPOTENT:
-            return list(dict.fromkeys(self.children))
-        return list(self.children)
-
-    def _refs(self, P: np.ndarray, look: Any) -> Result:
-        """Children's results stacked: f (k, N), g (k, N, 3), c (k, N, 3)."""
-        rs = [c._ref(P, look) for c in self.children]
-        return (np.stack([r[0] for r in rs]), np.stack([r[1] for r in rs]),
-                np.stack([r[2] for r in rs]))
-
-    def combine_boxes(self, boxes: list[geo.Box]) -> geo.Box:
-        """This operator's box from its children's boxes (in the same frame)."""
-        return geo.box_union(boxes)
-
-    def _box(self, L):
-        return self.combine_boxes([c.box(L) for c in self.children])
-
-    def _lipschitz(self):
-        bounds = [c.lipschitz() for c in self.children]
-        if self.LIPSCHITZ == "norm":
-            m, n = max(bounds), self.op_params()[0]
-            return float(m * sum((b / m) ** n for b in bounds) ** (1.0 / n)) if m > 0.0 else 0.0
-        return float(sum(bounds) if self.LIPSCHITZ == "sum" else max(bounds))
-
-
-#: Margin by which a later child's field must beat the best so far to win a union's or
-#: intersection's point (its gradient and colour): children whose fields agree closer than
-#: rounding (coinciding cone caps, overlapping segments) keep the first, in the compiled engine
-#: (``kmath.select``) and in the reference (:func:`winner`) alike.  Absolute, since fields are
-#: of order 1 and their rounding errors are absolute (relative to a field near 0 they are not
-#: small).  A field of exactly 0 (outside a child's support) is never tied with a positive one:
-#: a union takes the positive child, an intersection the zero one, as the specialised programs
-#: do when they drop or zero a child that misses their region.
-TIE = 1e-12
-
-
-def winner(f: np.ndarray, largest: bool) -> np.ndarray:
-    """Per point, the index of the child (row of ``f``) with the largest (or smallest) field,
-    the first of those within :data:`TIE` of each other."""
-    index = np.zeros(f.shape[1], dtype=np.int64)
-    best = f[0]
-    for j in range(1, len(f)):
-        better = ((f[j] > best + TIE) | ((best == 0.0) & (f[j] > 0.0)) if largest
-                  else (f[j] < best - TIE) | ((f[j] == 0.0) & (best > 0.0)))
-        index = np.where(better, j, index)
-        best = np.where(better, f[j], best)
-    return index
-
-
-def pick(index: np.ndarray, stacked: np.ndarray) -> np.ndarray:
-    """stacked[index[n], n] for each point n."""
-    return np.take_along_axis(stacked, index[None, :, None], axis=0)[0]
-
-
-def weighted_color(w: np.ndarray, c: np.ndarray) -> np.ndarray:
-    """Sum w_i c_i / sum w_i; the first child's colour where all weights are 0."""
-    total = w.sum(axis=0)
-    safe = np.where(total > 0.0, total, 1.0)
-    mean = (w[:, :, None] * c).sum(axis=0) / safe[:, None]
-    return np.where((total > 0.0)[:, None], mean, c[0])
-
-
-class Unary(Node):
-    """A node with one child."""
-
-    ARITY = (1, 1)
-
-    @property
-    def child(self) -> Node:
-        return self.children[0]
-
-    def _box(self, L):
-        return self.child.box(L)
-
-    def _lipschitz(self):
-        return self.child.lipschitz()
-
-
-class Affine(Unary):
-    """An affine transform; ``matrix`` (3x4) maps child coordinates to this node's.  The compiler
-    folds chains of them into the primitives below (no kernel)."""
-
-    KIND = "affine"
-
-    @cached_property
-    def matrix(self) -> np.ndarray:
-        raise NotImplementedError
-
-    @cached_property
-    def inverse(self) -> np.ndarray:
-        return geo.invert(self.matrix)
-
-    def _ref(self, P, look=None):
-        inv = self.inverse
-        f, g, c = self.child._ref(geo.apply(inv, P), look)
-        return f, g @ inv[:, :3], c
-
-    def _box(self, L):
-        return self.child.box(geo.compose(L, self.matrix))
-
-    def _lipschitz(self):
-        return self.child.lipschitz() * geo.spectral_norm(self.inverse[:, :3])
-
-
-class Paint(Unary):
-    """A node that sets the colour of its subtree (kernel: ``PaintKernels``).  ``sets_look``:
-    instead of an instruction, it paints the primitives below with their own (u, v)."""
-
-    KIND = "paint"
-
-    @property
-    def sets_look(self) -> bool:
-        return False
-
-    def pack(self, frame: np.ndarray, image_offset: Callable[[Node], int]) -> list[float]:
-        """Its parameters in the program; ``frame`` maps its coordinates to the current frame,
-        ``image_offset(node)`` places a texture image in the program."""
-        raise NotImplementedError

@@ -31,8 +31,11 @@ from typing import Any
 
 import numpy as np
 
-from .checks import Integer, Number, positive, short_repr
-from .spiral import HelicoSpiral
+from ..checks import Integer, Number, positive, short_repr
+from ..helico import HelicoSpiral
+
+__all__ = ["HelicoSurface", "image_from_text", "image_to_text", "load_image", "parse_mapping",
+           "perpendicular_frame", "sample", "turn"]
 
 #: A field gradient shorter than this gives the bounding-surface search no direction: where the
 #: field is flat (inside a cylinder's core, f = 1) rounding leaves gradients of ~1e-16 whose
@@ -160,8 +163,8 @@ _SURFACE_KINDS = {"u_period": positive(), "u_start": Number(-1e6, 1e6),
 
 @dataclass(frozen=True)
 class HelicoSurface:
-    """A bounding surface for :class:`Texture`: a tube of radius ``radius_factor * D(theta)``
-    around a helico-spiral (Eqs. 1-3), for the shell's body whorl (Section 3.4).
+    """A bounding surface for :class:`~blobtree.Texture`: a tube of radius ``radius_factor *
+    D(theta)`` around a helico-spiral (Eqs. 1-3), for the shell's body whorl (Section 3.4).
 
     u = (theta - u_start) / u_period (one texture copy per section: 116 degrees in the paper,
     starting at a join between sections, so the texture's seams fall under the varices), v =
@@ -186,6 +189,7 @@ class HelicoSurface:
             object.__setattr__(self, name, kind.check(name, getattr(self, name)))
 
     def to_dict(self) -> dict[str, Any]:
+        """Its parameters as JSON-ready values (scene files)."""
         d = asdict(self)
         d["spiral"] = asdict(self.spiral)
         return d

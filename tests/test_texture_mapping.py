@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import blobtree as bt
-from blobtree.texture import HelicoSurface, load_image, sample
+from blobtree.texture.mapping import HelicoSurface, load_image, sample
 
 
 def uv_ramp(u, v):
@@ -158,8 +158,8 @@ def test_bounding_surface_colour_where_the_field_is_flat():
     either sign: the search takes no direction from it, in the engine as in the reference
     (a regression: the two followed opposite noise and painted different texels)."""
     from blobtree.engine import GRID_MIN_POINTS
-    from blobtree.spiral import HelicoSpiral
-    from blobtree.texture import HelicoSurface
+    from blobtree.helico import HelicoSpiral
+    from blobtree.texture.mapping import HelicoSurface
     from tests.trees import sample_points
 
     img = np.random.default_rng(1).random((16, 16, 3))

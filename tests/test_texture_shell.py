@@ -9,8 +9,8 @@ import pytest
 
 import blobtree as bt
 from blobtree.models import figures as F
-from blobtree.models import shell_textures as ST
 from blobtree.nodes import Color, ControlledBlend, Texture
+from blobtree.texture import shell as ST
 
 pytestmark = pytest.mark.slow  # builds the full shell
 

@@ -1,9 +1,11 @@
-"""The logarithmic helico-spiral of shells (paper Section 2.1, Eqs. 1-3)."""
+"""The logarithmic helico-spiral of shells (paper Section 2.1, Eqs. 1-3), the Murex's spiral
+(Eq. 7) and the placement P(B, theta) of a generating surface along it (Eq. 8)."""
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Protocol, Self, TypeVar
 
 from .checks import Number, positive
 
@@ -54,3 +56,31 @@ class HelicoSpiral:
 #: What each parameter may be (d_ratio may also be None).
 _KINDS = {"beta": Number(0.1, 89.9), "rho": Number(1.000001, 1e3), "r0": positive(),
           "d_ratio": Number(1e-6, 1e3)}
+
+
+#: The helico-spiral of the Murex cabritii model (Eq. 7).
+MUREX_SPIRAL = HelicoSpiral(d_ratio=0.341)
+
+
+def helico_spiral(theta: float) -> tuple[float, float, float]:
+    """(R, H, D) of the Murex spiral (Eq. 7) at angle theta in degrees."""
+    s = MUREX_SPIRAL
+    return s.radius(theta), s.height(theta), s.size(theta)
+
+
+class Placeable(Protocol):
+    """What :func:`place` needs of a BlobTree node: the affine transforms of Eq. 8."""
+
+    def scale(self, *factors: float) -> Self: ...
+    def translate(self, x: float, y: float, z: float) -> Self: ...
+    def rotate(self, axis: str, degrees: float) -> Self: ...
+
+
+N = TypeVar("N", bound=Placeable)
+
+
+def place(node: N, theta: float, spiral: HelicoSpiral = MUREX_SPIRAL) -> N:
+    """Eq. 8: P(B, theta) = r(Y, theta)(t(R, H, 0)(s(D, D, D)(B)))."""
+    d = spiral.size(theta)
+    return node.scale(d).translate(spiral.radius(theta), spiral.height(theta), 0.0).rotate(
+        "y", theta)

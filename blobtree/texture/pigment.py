@@ -45,7 +45,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from .checks import RGB, Choice, Integer, Kind, Number
+from ..checks import RGB, Choice, Integer, Kind, Number
 
 #: Ground and pigment colours (sRGB in [0, 1]) of :func:`blobtree.models.pigment_texture`: the
 #: shell's cream and a dark reddish brown.
@@ -406,3 +406,21 @@ def pattern_sheet(width: int = 160, height: int = 320, seed: int = 0) -> np.ndar
         draw.text((x + (width - (right - left)) // 2, gap + height + (label - bottom) // 2), name,
                   fill=(0, 0, 0))
     return np.asarray(sheet).copy()
+
+#: The default model of :func:`pigment_texture`: stripes along the growth direction.
+STRIPES = ActivatorInhibitor()
+
+
+def pigment_texture(height: int = 256, width: int = 128, model: ActivatorInhibitor = STRIPES,
+                    seed: int = 0, steps_per_row: int = 4, warmup: int = 400,
+                    ground: np.ndarray = GROUND, pigment: np.ndarray = PIGMENT) -> np.ndarray:
+    """An (height, width, 3) uint8 texture of pigment grown by
+    :func:`~blobtree.texture.pigment.grow` (after ``warmup`` steps, so the pattern has formed):
+    ``width`` columns of growth (u along the spiral), ``height`` cells along the lip (v around the
+    whorl).  Pigment rises with the activator: a pale tint at the uniform steady state a*, full
+    pigment from 3 a*."""
+    if not isinstance(model, ActivatorInhibitor):
+        raise ValueError(f"model must be an ActivatorInhibitor, got {type(model).__name__}")
+    a = grow(height, width, steps_per_row, model, seed, warmup).T
+    a_star = model.steady_state()[0]
+    return to_uint8(tint(a, 0.5 * a_star, 3.0 * a_star, ground, pigment))

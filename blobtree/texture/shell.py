@@ -7,7 +7,7 @@ Figures 13-14: Murex cabritii is creamy white to pale pinkish brown, its spines 
 toward the tips.
 
 (a) :func:`body_whorl_texture`: one 116 deg section of the body whorl under a bounding-surface
-    mapping (:class:`blobtree.texture.HelicoSurface`): u along the spiral, v around the tube
+    mapping (:class:`blobtree.texture.mapping.HelicoSurface`): u along the spiral, v around the tube
     (v = 0 at the periphery, 0.25 toward the canal, 0.75 toward the apex).  Spiral colour bands
     and fine spiral cords run along u; thin axial growth lines cross them.  Every term is periodic
     in both u and v, so the image tiles ("repeat") without a seam along the spiral or around

@@ -27,10 +27,10 @@ from numba.core import event, types
 from numba.core.caching import FunctionCache
 from numba.core.runtime import rtsys
 
-_PACKAGE = Path(__file__).resolve().parent
+_PACKAGE = Path(__file__).resolve().parents[1]
 #: Parts of the package no kernel depends on: code numba never compiles, and the mesher, whose
 #: kernels (:func:`cached`) are keyed on their own source file, as they call no engine kernel.
-_NOT_COMPILED = {"cli", "mesh", "models", "textures.py"}
+_NOT_COMPILED = {"cli", "mesh", "models", "texture/pigment.py", "texture/shell.py"}
 
 
 @functools.cache
@@ -39,7 +39,7 @@ def engine_key() -> str:
     h = hashlib.sha256(numba.__version__.encode())
     for path in sorted(_PACKAGE.rglob("*.py")):
         rel = path.relative_to(_PACKAGE)
-        if rel.parts[0] in _NOT_COMPILED:
+        if rel.parts[0] in _NOT_COMPILED or rel.as_posix() in _NOT_COMPILED:
             continue
         h.update(str(rel).encode())
         h.update(path.read_bytes())

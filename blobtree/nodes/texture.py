@@ -11,11 +11,14 @@ from typing import Any
 import numpy as np
 
 from .. import geometry as geo
-from .. import texture as tex
 from ..checks import Choice
-from ..jit import kernel
-from . import kmath
-from .base import Layout, Paint, PaintKernels, register
+from ..runtime.jit import kernel
+from ..texture import mapping as tex
+from . import kernel_math
+from .kernels import PaintKernels
+from .kinds import Paint
+from .layout import Layout
+from .node import register
 from .params import Image, Mapping, Param
 
 LAYOUT = Layout(0, to_local=12, normal_map=9, r0=1, rho=1, cot_beta=1, d_over_r=1,
@@ -31,7 +34,7 @@ def helico_locate(p, o, x, y, z):
     unit vector (rx, rz) and D."""
     r0, rho_, cot = p[o + R0], p[o + RHO], p[o + COT_BETA]
     rho = math.sqrt(x * x + z * z)
-    phi = math.degrees(kmath.atan2(-z, x))
+    phi = math.degrees(kernel_math.atan2(-z, x))
     if phi < 0.0:
         phi += 360.0
     best_t, best_d, best_r = 0.0, np.inf, 0.0
@@ -48,7 +51,7 @@ def helico_locate(p, o, x, y, z):
 @kernel
 def texture_paint(p, o, px, py, pz, gx, gy, gz):
     """Move the point toward the bounding surface (as ``HelicoSurface.uv``), then sample."""
-    x, y, z = kmath.map_point(p, o + TO_LOCAL, px, py, pz)
+    x, y, z = kernel_math.map_point(p, o + TO_LOCAL, px, py, pz)
     m = o + NORMAL_MAP
     lx = p[m] * gx + p[m + 1] * gy + p[m + 2] * gz
     ly = p[m + 3] * gx + p[m + 4] * gy + p[m + 5] * gz
@@ -75,16 +78,17 @@ def texture_paint(p, o, px, py, pz, gx, gy, gz):
             h = step * d / sn
             x, y, z = x + h * sx, y + h * sy, z + h * sz
     theta, dr, dy, rx, rz, d = helico_locate(p, o, x, y, z)
-    return kmath.texel(p, int(p[o + IMAGE]), (theta - p[o + U_START]) / p[o + U_PERIOD],
-                       kmath.turn(dy, dr))
+    return kernel_math.texel(p, int(p[o + IMAGE]), (theta - p[o + U_START]) / p[o + U_PERIOD],
+                             kernel_math.turn(dy, dr))
 
 
 @register
 class Texture(Paint):
     """The 2D texture-map operator m (Section 3.4) with one of the paper's two methods:
     ``mapping="primitive"`` (field-interpolated: each primitive below uses its own (u, v)) or a
-    :class:`texture.HelicoSurface` (bounding surface).  ``image``: a PNG/JPEG path, an (H, W, 3)
-    array (uint8, or floats in [0, 1]) or a function of (u, v) arrays returning (..., 3) colours.
+    :class:`~blobtree.texture.mapping.HelicoSurface` (bounding surface).  ``image``: a PNG/JPEG
+    path, an (H, W, 3) array (uint8, or floats in [0, 1]) or a function of (u, v) arrays returning
+    (..., 3) colours.
 
     Which paint wins: colour nodes and bounding-surface textures paint their whole subtree (the
     outermost wins); a field-interpolated texture paints the primitives below it that no nearer
@@ -101,6 +105,7 @@ class Texture(Paint):
 
     @property
     def sets_look(self) -> bool:
+        """True for the field-interpolated mapping (``mapping="primitive"``)."""
         return self.mapping == "primitive"
 
     @cached_property
@@ -126,7 +131,7 @@ class Texture(Paint):
 
     def image_block(self) -> np.ndarray:
         """The image in the program (stored once per ``image_key``): width, height, wrap id, then
-        the rgb rows in [0, 1] (read by ``kmath.texel``)."""
+        the rgb rows in [0, 1] (read by ``kernel_math.texel``)."""
         h, w = self.image.shape[:2]
         head = [w, h, tex.WRAPS[self.wrap]]
         return np.concatenate([head, self.image.reshape(-1) / 255.0])
