@@ -2,8 +2,9 @@
 
 The numpy peer computes all 126 primitives at every point, vectorised over points in chunks.
 Both are timed as the best of ``--repeat`` runs on the same points (the first touch of a large
-fresh array costs page faults that a long-running process pays once).
-Run: python bench/bench_engine.py [--sizes 1e6 1e7] [--repeat 3]
+fresh array costs page faults that a long-running process pays once).  With ``--record`` the
+figures are appended to bench/results.jsonl (see bench/record.py).
+Run: python bench/bench_engine.py [--sizes 1e6 1e7] [--repeat 3] [--record] [--record-file PATH]
 """
 
 from __future__ import annotations
@@ -16,12 +17,14 @@ import time
 from pathlib import Path
 
 import numpy as np
+import record
 
 import blobtree as bt
 from blobtree import geometry as geo
 from blobtree.fields import falloff
 
 CHUNK = 1 << 16
+PEER = "numpy, every primitive at every point"
 
 
 def numpy_peer(tree: bt.Node, P: np.ndarray) -> np.ndarray:
@@ -73,7 +76,9 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--sizes", type=float, nargs="+", default=[1e6, 1e7])
     ap.add_argument("--repeat", type=int, default=3)
+    record.add_arguments(ap)
     args = ap.parse_args()
+    record_file = record.target(args)
     tree = bt.models.whorl126()
     t0 = time.perf_counter()
     prog = tree.program()
@@ -83,7 +88,10 @@ def main() -> None:
     prog.field(np.zeros((GRID_MIN_POINTS, 3)))  # builds the grid of specialised programs
     print(f"first calls in this process (kernel compile or cache load, tree compile, grid): "
           f"{time.perf_counter() - t0:.2f} s")
-    print(f"fresh process, import + first evaluation: {second_process_start():.2f} s")
+    t_start = second_process_start()
+    print(f"fresh process, import + first evaluation: {t_start:.2f} s")
+    recorded = [record.row("import blobtree and a first whorl126 field, fresh process", t_start,
+                           note="one run, kernels cached")]
     lo, hi = prog.bounds
     rng = np.random.default_rng(1)
     for n in (int(s) for s in args.sizes):
@@ -94,6 +102,11 @@ def main() -> None:
         print(f"N={n:>9}: engine {te:7.3f} s ({n / te / 1e6:7.1f} M/s)   numpy {tn:7.2f} s "
               f"({n / tn / 1e6:6.2f} M/s)   ratio {tn / te:6.1f}x   max |diff| {err:.1e}"
               f"   (best of {args.repeat})")
+        recorded.append(record.row(f"whorl126 field at {n:,} random points", te, PEER, tn,
+                                   f"best of {args.repeat}"))
+    if record_file:
+        record.append("bench_engine.py", recorded, record_file)
+        print(f"recorded in {record_file}")
 
 
 if __name__ == "__main__":

@@ -13,10 +13,10 @@ Our first call (numba compile or cache load) is reported apart.
 
 Then the whole command ``blobtree mesh murex --resolution 512 -o murex.stl`` (start-up, tree,
 meshing, file, checks), best of ``--repeat``, against issue 13's bar of 8 s (``--murex 0`` skips
-it).
+it).  With ``--record`` the figures are appended to bench/results.jsonl (see bench/record.py).
 
 Usage: python bench/bench_mesh.py [--resolutions 128 256 512] [--peer-b-max 256] [--repeat 3]
-                                  [--murex 512]
+                                  [--murex 512] [--record] [--record-file PATH]
 """
 
 from __future__ import annotations
@@ -31,10 +31,14 @@ import time
 from pathlib import Path
 
 import numpy as np
+import record
 
 import blobtree as bt
 from blobtree.fields import soft_object
 from blobtree.mesh import Mesh, polygonize
+
+PEER_A = "numpy + scikit-image marching_cubes"
+PEER_B = "sdf (sdf-fork)"
 
 
 def whorl_spheres() -> tuple[np.ndarray, np.ndarray]:
@@ -122,7 +126,11 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3, help="best of this many runs")
     ap.add_argument("--murex", type=int, default=512,
                     help="resolution of the whole-command Murex mesh timing (0: skip it)")
+    record.add_arguments(ap)
     args = ap.parse_args()
+    record_file = record.target(args)
+    note = f"best of {args.repeat}"
+    recorded = []
 
     tree = bt.models.whorl126()
     prog = tree.program()
@@ -149,24 +157,33 @@ def main() -> None:
             Mesh(v, f, zero, zero).is_watertight,
             f"{ours[n] / t_a:.2f}x",
         )
+        recorded.append(record.row(f"whorl126 polygonize at resolution {n}", ours[n], PEER_A,
+                                   t_a, note))
         if n <= args.peer_b_max:
             pts, t_b = best(args.repeat, peer_sdf, 1.0 / prog.lipschitz_global, lo, hi, cell)
             tri = np.arange(len(pts)).reshape(-1, 3)
             row(n, "sdf", t_b, len(tri), welded(pts, tri).is_watertight, f"{ours[n] / t_b:.2f}x")
+            recorded.append(record.row(f"whorl126 polygonize at resolution {n}, sdf peer",
+                                       ours[n], PEER_B, t_b, note))
     for n in args.resolutions:
         if 2 * n in ours:
             print(f"T({2 * n}) / T({n}) = {ours[2 * n] / ours[n]:.2f}")
     if args.murex:
-        murex_command(args.murex, args.repeat)
+        t_murex = murex_command(args.murex, args.repeat)
+        recorded.append(record.row(f"murex mesh at resolution {args.murex}, whole command",
+                                   t_murex, note=note))
+    if record_file:
+        record.append("bench_mesh.py", recorded, record_file)
+        print(f"recorded in {record_file}")
 
 
 #: issue 13's bar for the whole ``blobtree mesh murex --resolution 512`` command, seconds
 MUREX_BAR = 8.0
 
 
-def murex_command(resolution: int, repeat: int) -> None:
+def murex_command(resolution: int, repeat: int) -> float:
     """Time the whole ``blobtree mesh murex`` command (its kernels cached by a first run; the
-    package's bytecode compiled, as an install has it)."""
+    package's bytecode compiled, as an install has it); its best time in seconds."""
     compileall.compile_dir(Path(bt.__file__).parent, quiet=1)
     with tempfile.TemporaryDirectory() as tmp:
         cmd = [sys.executable, "-m", "blobtree.cli.main", "mesh", "murex", "--resolution",
@@ -180,6 +197,7 @@ def murex_command(resolution: int, repeat: int) -> None:
             times.append(time.perf_counter() - t)
     print(f"blobtree mesh murex --resolution {resolution}, whole command: {min(times):.2f} s "
           f"(best of {repeat}; issue 13's bar at 512: {MUREX_BAR:g} s)  {out.strip()}")
+    return min(times)
 
 
 if __name__ == "__main__":

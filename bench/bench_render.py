@@ -6,9 +6,11 @@ in-process after warm-up: without shadows, and with shadows on both sides (the s
 light).  Then times ``blobtree render murex --size 1024x1024`` (the default look: textures,
 shadows) as a whole process against POV-Ray's whorl126 at the largest size.  Prints times and
 ratios, the numba compile cost (a run with an empty cache), the bars of issue 13, and saves the
-images side by side.
+images side by side.  With ``--record`` the figures are appended to bench/results.jsonl (see
+bench/record.py; ``python bench/report.py`` then regenerates docs/benchmarks.md).
 
     python bench/bench_render.py [--sizes 800,1600] [--repeat 3] [--murex 1024] [--out bench/out]
+                                 [--record] [--record-file PATH]
 
 POV-Ray's blob component field is strength (1 - r^2/radius^2)^2.  With radius 2D it is
 strength * (3/4)^2 = 0.5625 strength at r = D, so strength 0.5 / 0.5625 puts the 0.5 iso-surface
@@ -22,6 +24,7 @@ import argparse
 import compileall
 import math
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -30,6 +33,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import record
 from PIL import Image
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -94,13 +98,22 @@ def timed(cmd: list[str], env: dict | None = None) -> float:
     return time.perf_counter() - start
 
 
+def pov_version(povray: str) -> str:
+    """POV-Ray's name and major.minor version, e.g. ``POV-Ray 3.7``."""
+    out = subprocess.run([povray, "--version"], capture_output=True, text=True)
+    found = re.search(r"POV-Ray (\d+\.\d+)", out.stdout + out.stderr)
+    return f"POV-Ray {found[1]}" if found else "POV-Ray"
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--sizes", default="800,1600")
     ap.add_argument("--repeat", type=int, default=3, help="best of this many runs")
     ap.add_argument("--murex", type=int, default=1024, help="size of the Murex render (0: skip)")
     ap.add_argument("--out", default=str(ROOT / "bench" / "out"))
+    record.add_arguments(ap)
     args = ap.parse_args()
+    record_file = record.target(args)
     sizes = [int(s) for s in args.sizes.split(",")]
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -185,6 +198,24 @@ def main() -> None:
         verdict = "PASS" if ratio <= limit else "FAIL"
         print(f"bar {name} <= {limit}x POV-Ray: {ratio:.2f}x {verdict}")
     print(f"images: {out}")
+    if record_file:
+        peer = pov_version(povray)
+        note = f"best of {args.repeat}"
+        first = f"whorl126 render {sizes[0]}x{sizes[0]}, whole command, no shadows"
+        recorded = [record.row(f"{first}, empty numba cache", cold,
+                               note="one run: compiles the kernels")]
+        for shadows, size, t_pov, t_cli, t_in in rows:
+            name = f"whorl126 render {size}x{size}, %s, {'shadows' if shadows else 'no shadows'}"
+            recorded += [record.row(name % "whole command", t_cli, peer, t_pov, note),
+                         record.row(name % "in-process", t_in, peer, t_pov,
+                                    f"{note}; {peer} as a whole command")]
+        if args.murex:
+            m = args.murex
+            recorded.append(record.row(f"murex render {m}x{m}, whole command, default look",
+                                       t_murex, f"{peer}, whorl126 {big}x{big}, no shadows",
+                                       pov[False], note))
+        record.append("bench_render.py", recorded, record_file)
+        print(f"recorded in {record_file}")
 
 
 if __name__ == "__main__":
