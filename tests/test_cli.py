@@ -51,7 +51,7 @@ def test_a_cached_command_loads_its_kernels_without_numbas_registries(tmp_path):
     assert r.exit_code == 0, r.output
     script = ("import gc, sys\n"
               "from blobtree.cli.main import run\n"
-              "from blobtree.jit import _LazyCache\n"
+              "from blobtree.runtime.jit import _LazyCache\n"
               "caches = [o for o in gc.get_objects() if isinstance(o, _LazyCache)]\n"
               "def made():\n"
               "    return sum(c._real is not None for c in caches), len(caches)\n"

@@ -569,14 +569,15 @@ def test_nan_and_infinite_points_agree_on_both_paths():
 
 
 def test_thread_count_is_numbas_without_starting_numbas_pool():
-    """``parallel.threads`` is NUMBA_NUM_THREADS in a fresh process without starting numba's own
+    """``threads.threads`` is NUMBA_NUM_THREADS in a fresh process without starting numba's own
     pool of threads (which costs a command 17-28 ms), and follows ``numba.set_num_threads``."""
     import subprocess
     import sys
 
-    code = ("import numba; from numba.np.ufunc import parallel as p; from blobtree import parallel;"
-            "n = parallel.threads(); print(n, p._is_initialized); numba.set_num_threads(1);"
-            "print(parallel.threads())")
+    code = ("import numba; from numba.np.ufunc import parallel as p;"
+            "from blobtree.runtime import threads; n = threads.threads();"
+            "print(n, p._is_initialized); numba.set_num_threads(1);"
+            "print(threads.threads())")
     for count in ("1", "2"):
         env = {**os.environ, "NUMBA_NUM_THREADS": count}
         out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
