@@ -1,8 +1,8 @@
-"""Benchmark: a render on a local Dask cluster against the local engine (issue 7).
+"""Benchmark: a render on a local Dask cluster against the local engine.
 
 Renders the whole Murex shell with the same settings on the local engine (numba threads, one per
 core) and on a local cluster of single-threaded worker processes, checks the images are
-byte-identical and prints the times and their ratio (issue bar: <= 1.3 on 2 cores, 1024x1024).
+byte-identical and prints the times and their ratio (bar: <= 1.3 on 2 cores, 1024x1024).
 
     python bench/bench_distributed.py [--size 1024] [--workers 2] [--samples 1] [--tile 64]
                                       [--record] [--record-file PATH]

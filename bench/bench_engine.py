@@ -1,4 +1,4 @@
-"""Field evaluations per second on whorl126: compiled engine vs plain numpy (issue 2 bench).
+"""Field evaluations per second on whorl126: compiled engine vs plain numpy.
 
 The numpy peer computes all 126 primitives at every point, vectorised over points in chunks.
 Both are timed as the best of ``--repeat`` runs on the same points (the first touch of a large

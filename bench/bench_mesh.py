@@ -12,7 +12,7 @@ shared):
 Our first call (numba compile or cache load) is reported apart.
 
 Then the whole command ``blobtree mesh murex --resolution 512 -o murex.stl`` (start-up, tree,
-meshing, file, checks), best of ``--repeat``, against issue 13's bar of 8 s (``--murex 0`` skips
+meshing, file, checks), best of ``--repeat``, against the bar of 8 s (``--murex 0`` skips
 it).  With ``--record`` the figures are appended to bench/results.jsonl (see bench/record.py).
 
 Usage: python bench/bench_mesh.py [--resolutions 128 256 512] [--peer-b-max 256] [--repeat 3]
@@ -177,7 +177,8 @@ def main() -> None:
         print(f"recorded in {record_file}")
 
 
-#: issue 13's bar for the whole ``blobtree mesh murex --resolution 512`` command, seconds
+#: the bar (the most it may take) for the whole ``blobtree mesh murex --resolution 512`` command,
+#: seconds
 MUREX_BAR = 8.0
 
 
@@ -196,7 +197,7 @@ def murex_command(resolution: int, repeat: int) -> float:
             out = subprocess.run(cmd, check=True, capture_output=True, text=True).stdout
             times.append(time.perf_counter() - t)
     print(f"blobtree mesh murex --resolution {resolution}, whole command: {min(times):.2f} s "
-          f"(best of {repeat}; issue 13's bar at 512: {MUREX_BAR:g} s)  {out.strip()}")
+          f"(best of {repeat}; bar at 512: {MUREX_BAR:g} s)  {out.strip()}")
     return min(times)
 
 

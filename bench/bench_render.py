@@ -1,13 +1,14 @@
-"""Benchmark: the direct ray tracer against POV-Ray's blob on the whorl126 scene (issues 4, 13).
+"""Benchmark: the direct ray tracer against POV-Ray's blob on the whorl126 scene.
 
 Renders whorl126 at 800x800 and 1600x1600 (one light, no anti-aliasing, the same framing) with
 POV-Ray and with blobtree, both as whole processes from the command line, and with blobtree also
 in-process after warm-up: without shadows, and with shadows on both sides (the same parallel
-light).  Then times ``blobtree render murex --size 1024x1024`` (the default look: textures,
-shadows) as a whole process against POV-Ray's whorl126 at the largest size.  Prints times and
-ratios, the numba compile cost (a run with an empty cache), the bars of issue 13, and saves the
-images side by side.  With ``--record`` the figures are appended to bench/results.jsonl (see
-bench/record.py; ``python bench/report.py`` then regenerates docs/benchmarks.md).
+light).  Then times ``blobtree render murex --size 1024x1024`` (the default look: textures, shadows)
+as a whole process against POV-Ray's whorl126 at the largest size.  Prints times and ratios, the
+numba compile cost (a run with an empty cache), the bars (the most each ratio to POV-Ray may be),
+and saves the images side by side.  With ``--record`` the figures are appended to
+bench/results.jsonl (see bench/record.py; ``python bench/report.py`` then regenerates
+docs/benchmarks.md).
 
     python bench/bench_render.py [--sizes 800,1600] [--repeat 3] [--murex 1024] [--out bench/out]
                                  [--record] [--record-file PATH]
@@ -183,7 +184,7 @@ def main() -> None:
     warm = next(t_cli for shadows, size, _, t_cli, _ in rows if size == sizes[0] and not shadows)
     print(f"numba compile cost (first run, empty cache): {cold:.2f}s - {warm:.2f}s = "
           f"{cold - warm:.2f}s")
-    # issue 13's bars: whole processes against POV-Ray at the largest size
+    # the bars: whole processes against POV-Ray at the largest size
     big = max(sizes)
     pov = {shadows: t_pov for shadows, size, t_pov, _, _ in rows if size == big}
     cli = {shadows: t_cli for shadows, size, _, t_cli, _ in rows if size == big}

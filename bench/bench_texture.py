@@ -1,4 +1,4 @@
-"""What texturing costs: the Murex shell rendered textured and plain (issue 6 bench).
+"""What texturing costs: the Murex shell rendered textured and plain.
 
 With ``--record`` the figures are appended to bench/results.jsonl (see bench/record.py).
 

@@ -1,5 +1,5 @@
 """Count the solids and sealed bubbles of every shipped shell's mesh at every 32 cells from 128
-to 512 (issue 19: a shell you can print is one solid at any resolution), with the time each
+to 512 (printability: a shell you can print is one solid at any resolution), with the time each
 mesh took.  Exits 1 if some mesh is not one solid.  The tests check two resolutions.
 
 Usage: python bench/print_pieces.py [--shells murex oliva] [--step 32] [--sharp]

@@ -1,6 +1,6 @@
 """Where a render's time goes, tile by tile: renders a built-in model on one thread, one 64-pixel
 tile at a time, and prints each tile's seconds as a grid (the image's layout), the total and the
-share of the slowest tiles.  Uneven grids point at the rays that creep (issue 13).
+share of the slowest tiles.  Uneven grids point at the rays that creep.
 
 Usage: python bench/profile_tiles.py [--model murex] [--size 512] [--no-shadows] [--tile 64]
 """

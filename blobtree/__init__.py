@@ -16,7 +16,7 @@ from .nodes import *  # noqa: F403  (every node type and operator function, see 
 from .nodes import __all__ as _node_names
 from .render import Camera, Light, RenderSettings, render_tile, save_image
 from .runtime.allocator import pin_thresholds
-from .texture import pigment as textures  # bt.textures: the pigment models' earlier name
+from .texture import pigment as textures  # noqa: F401  (bt.textures: bt.texture.pigment)
 
 __version__ = "0.2.0"
 

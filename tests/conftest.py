@@ -16,8 +16,8 @@ import os
 
 from hypothesis import HealthCheck, Phase, settings
 
-#: No "explain" phase: on the trees drawn here, explaining a failure took minutes and 11 GB
-#: (a CI run stalled on it); the shrunk example and its error are reported without it.
+#: No "explain" phase: on the trees drawn here, explaining a failure can take minutes and 11 GB
+#: (enough to stall a CI run); the shrunk example and its error are reported without it.
 _COMMON = dict(deadline=None, suppress_health_check=[HealthCheck.too_slow,
                                                      HealthCheck.data_too_large,
                                                      HealthCheck.filter_too_much],

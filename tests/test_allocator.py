@@ -1,4 +1,5 @@
-"""The allocator's thresholds (blobtree/allocator.py): when they are pinned, and what it buys."""
+"""The allocator's thresholds (blobtree/runtime/allocator.py): when they are pinned, and what
+it buys."""
 
 import os
 import subprocess

@@ -587,8 +587,8 @@ def test_thread_count_is_numbas_without_starting_numbas_pool():
 
 def test_box_hierarchy_cuts_where_fewest_boxes_hold_a_point():
     """An associative operator's children are grouped by the volume heuristic: a cluster of 24
-    children and one of 8 far from it, given interleaved, are cut apart at the top (the median
-    of the centres, where the hierarchy was cut before, puts 8 of the 24 with the far ones), and
+    children and one of 8 far from it, given interleaved, are cut apart at the top (a cut at
+    the median of the centres would put 8 of the 24 with the far ones), and
     children whose boxes are all alike still give a balanced tree (a stack only logarithmically
     deep) and the exact sum."""
     near = [bt.Point(radius=0.5, center=(0.01 * i, 0.0, 0.0)) for i in range(24)]

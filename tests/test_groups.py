@@ -26,7 +26,7 @@ def test_groups_follow_the_formula_and_children_in_none_stand_alone():
     np.testing.assert_allclose(tree.reference(P)[0], expect, rtol=1e-12, atol=1e-15)
 
 
-def test_pairs_are_groups_of_two_with_n_1_and_keep_todays_fields_exactly():
+def test_pairs_are_groups_of_two_with_n_1_and_keep_the_pairs_fields_exactly():
     pairs = bt.controlled_blend(KIDS, pairs=[(0, 1), (1, 2), (3, 4)])
     groups = bt.controlled_blend(KIDS, groups=[(0, 1), (1, 2), (3, 4)])
     expect = np.max([F[0] + F[1], F[1] + F[2], F[3] + F[4]], axis=0)

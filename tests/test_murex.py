@@ -1,4 +1,4 @@
-"""The Murex cabritii model (issue 5): tables, part counts, seeding, opening, attachment, bounds."""
+"""The Murex cabritii model: tables, part counts, seeding, opening, attachment, bounds."""
 
 from __future__ import annotations
 
@@ -132,9 +132,9 @@ def test_body_whorl_is_one_piece():
 @pytest.mark.slow
 @pytest.mark.parametrize("resolution", [128, 256])
 def test_the_murex_is_one_piece(resolution):
-    """Issue 19: the whole Murex meshes to one connected solid, no bubbles, no islands.  The
-    test of the test: with the paper's form of Eq. 15 as a union, sharp differences and the
-    wall that only touched the previous whorl (wall_scale 0.95), the same mesh had 24 pieces."""
+    """Printability: the whole Murex meshes to one connected solid, no bubbles, no islands.
+    The test of the test: with the paper's form of Eq. 15 as a union, sharp differences and a
+    wall that only touches the previous whorl (wall_scale 0.95), the same mesh has many pieces."""
     mesh = bt.polygonize(M.murex(seed=0, textured=False), resolution=resolution)
     assert mesh.is_watertight and mesh.component_count() == 1
     old = replace(M.DEFAULT, wall_scale=0.95, inside_instances=(112, 127), lip_smooth=0.0,

@@ -1,6 +1,6 @@
-"""The difference with rounded edges (``Difference.smooth``, issue 19): a polynomial smooth
-minimum of f_1 and 1 - f_2 over a band of field values, checked against the formula, the sharp
-difference, finite differences and the compiled engine."""
+"""The difference with rounded edges (``Difference.smooth``, for printable shells): a
+polynomial smooth minimum of f_1 and 1 - f_2 over a band of field values, checked against the
+formula, the sharp difference, finite differences and the compiled engine."""
 
 import numpy as np
 import pytest

@@ -129,7 +129,7 @@ def test_every_shipped_species_renders_and_meshes_watertight(name):
 @pytest.mark.parametrize("resolution", [128, 320])
 @pytest.mark.parametrize("name", sorted(SHELLS))
 def test_every_shipped_shell_is_one_solid(name, resolution):
-    """Issue 19: every shipped shell meshes to one closed solid (bubbles sealed inside it, wound
+    """Printability: every shipped shell meshes to one closed solid (bubbles sealed inside it, wound
     inward, are part of it).  bench/print_pieces.py checks every 32 cells from 128 to 512."""
     mesh = bt.polygonize(shell(name, textured=False), resolution=resolution)
     assert mesh.is_watertight and mesh.solid_count() == 1

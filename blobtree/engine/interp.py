@@ -13,8 +13,8 @@ called (not inlined by numba) from the mesher, the ray tracer and the batches: t
 first run's compilation short.  The thin entry points around them (``lipschitz_box``,
 ``bound_box_at``, ``lipschitz_segment``, ``_bound_at``) are inlined into their callers instead:
 numba links and optimises again the whole code a compiled function calls, so each entry point
-compiled on its own took two to three seconds of a first run for a few lines.  All are compiled
-without reference counting (docs/engine.md).
+compiled on its own would take two to three seconds of a first run for a few lines.  All are
+compiled without reference counting (docs/engine.md).
 """
 
 from __future__ import annotations
@@ -122,7 +122,8 @@ def apply_warp(op, p, o, x, y, z, ps, pp, mode):
     params[o:o + 9] is the signed permutation Pm to the warp's canonical axes: q = Pm^T w(Pm x)
     and J = Pm^T Jc Pm.  Compiled into each caller with the warp's map: where mode is the
     constant 0 (a region carried through the warp, the bounds' field values) the Jacobian is
-    never computed, which made the Murex's rays 12% faster (5 s more of compiling, once)."""
+    never computed: the Murex's rays trace about 12% faster for it, for 5 s more of compiling
+    on a first run."""
     X, Y, Z = to_canonical(p, o, x, y, z)
     qx, qy, qz, j00, j01, j02, j10, j11, j12, j20, j21, j22 = warp_map(op, p, o, X, Y, Z)
     nx, ny, nz = from_canonical(p, o, qx, qy, qz)
@@ -208,8 +209,8 @@ def eval_point(code, params, boxes, x, y, z, mode, vs, ps):
     """Field at (x, y, z); mode 1 also leaves the gradient in vs[0, 1:4], mode 2 the gradient
     and the colour in vs[0, 4:7] (0: field only, for tracing; 2: everything, for shading).
     Compiled once for all modes (``jit.kernel`` types constants as plain values): branches skip
-    the work a mode does not need.  (A copy per mode, with that work folded away, traced the
-    Murex 14% faster but took 33 s more to compile on a first run.)"""
+    the work a mode does not need.  (A copy per mode, with that work folded away, traces the
+    Murex about 14% faster but takes 33 s more to compile on a first run.)"""
     n = code.shape[0]
     p = params
     sp = 0
@@ -439,12 +440,11 @@ def _bounded(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox, o
     bound; how far from o the field surely stays below ISO, and above it).  Costlier than
     :func:`_lipschitz` where no such operator is (a program of blends).  It bounds no rise
     along rays (:func:`_lipschitz`): on the Murex, whose ray programs all take this pass, the
-    rises saved nothing measurable (1.01-1.08x its render time at 256x256, ``bench/ab.py``,
-    within that day's noise).
+    rises save nothing measurable (``bench/ab.py`` at 256x256: within the noise).
 
     Stacks: fields in vs[:, 0], bounds in vs[:, BOUND], the distances an operator proved in
-    vs[:, BELOW] and vs[:, ABOVE] (``kmath.safe_distances`` adds those of the value and bound);
-    ps[pp, 0:3] saves the point and ps[pp, 3:9] the region across warps."""
+    vs[:, BELOW] and vs[:, ABOVE] (``kernel_math.safe_distances`` adds those of the value and
+    bound); ps[pp, 0:3] saves the point and ps[pp, 3:9] the region across warps."""
     n = code.shape[0]
     p = params
     sp = 0

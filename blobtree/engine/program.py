@@ -304,7 +304,7 @@ class _Emitter:
         return box
 
     def paint(self, node: Paint, M: np.ndarray, look: int) -> geo.Box:
-        """Colour nodes and textures (see texture.py for the two methods)."""
+        """Colour nodes and textures (see texture/mapping.py for the two methods)."""
         if node.sets_look:
             return self.emit(node.child, M, self.image_offset(node))
         head = self.add(OP_BOX)

@@ -59,8 +59,9 @@ BLOCK = 16
 #: cells per side of the smallest boxes culled
 FINE = 2
 #: cells per side of the smallest boxes given a Lipschitz bound of their own; smaller boxes
-#: reuse their ancestor's (at 4 cells a bound costs more than the samples it saves: the Murex
-#: at 512 meshes 6% faster, whorl126 at 256 about as fast, with the same mesh)
+#: reuse their ancestor's (at 4 cells a bound costs more than the samples it saves: without it
+#: the Murex at 512 meshes 6% faster, whorl126 at 256 about as fast, with the same mesh;
+#: ``python bench/ab.py BASE --task mesh --size 512``)
 BOUND_MIN = 8
 #: lattice points gathered and sampled at a time, at most (about 40 bytes each while sampled)
 SAMPLE_CHUNK = 1 << 20

@@ -459,8 +459,8 @@ def canal_spine(size: float, rng: np.random.Generator | None = None,
     """An axial canal spine of relative ``size`` (Table 2): a cone on +x from the origin, bent
     1-3 times by 3-9 deg toward random directions at random places when ``rng`` is given.  A
     spine smaller than ``canal_spines.min_size`` keeps that size's thickness: scaled down with
-    its length, the smallest spines' tips (0.01-0.04 units) were thinner than a mesh cell and
-    broke off as islands (issue 19)."""
+    its length, the smallest spines' tips (0.01-0.04 units) would be thinner than a mesh cell
+    and break off as islands, and a printed shell must be one solid."""
     if not (math.isfinite(size) and size > 0.0):
         raise ValueError(f"size must be a finite number > 0, got {size!r}")
     length = spec.canal_spine_length
@@ -669,21 +669,21 @@ def shell(spec: ShellSpec | Mapping | str | Path = "murex", seed: int = 0, insid
     W)) = max(min(S, 1 - O), min(S, W)) by distributivity, and the second form clips the wall to
     the shell.  The paper's wall lies inside; ours is larger (``opening.wall_scale`` 1.2, ours)
     so that it fills the crease the extension cones carve where the wall meets the previous
-    whorl.  With the union and a wall that just touched, that crease was sealed inside the
+    whorl.  Joined by the union, a wall that just touches would seal that crease inside the
     shell as 14-48 bubbles (pieces of the mesh); clipped, the larger wall closes it and cannot
     show outside the shell.
 
     The differences are rounded (``Difference.smooth``): the carving of the lip by
     ``opening.lip_smooth``, Eq. 14's cut and the wall's by ``opening.cut_smooth``.  The sharp
     CSG difference leaves knife edges wherever a carved surface leaves another at a grazing
-    angle: along the aperture's lip, the slit the inner canal cones open down the canal, the
-    inside wall's rim.  There the field only just reaches 0.5 over a wall thinner than a mesh
-    cell, and a mesher sampling it keeps fragments of it as separate slivers, different ones at
-    each resolution (up to 4 extra solids per shell from 128 to 512 cells with sharp cuts, 24-61
-    before the wall was clipped).  A rounded difference is within smooth / 4 of the sharp one
-    and only removes the part of such an edge thinner than about smooth / (2 ``|grad f|``): the
-    lip is blunt, as a real shell's is.  The solid is still Eqs. 14 and 15, with its edges
-    rounded rather than sharp; ``lip_smooth = cut_smooth = 0`` gives the sharp form.
+    angle: along the aperture's lip, the slit the inner canal cones open down the canal, the inside
+    wall's rim.  There the field only just reaches 0.5 over a wall thinner than a mesh cell, and a
+    mesher sampling it keeps fragments of it as separate slivers, different ones at each resolution
+    (up to 4 extra solids per shell from 128 to 512 cells with sharp cuts:
+    ``python bench/print_pieces.py --sharp``).  A rounded difference is within smooth / 4 of the
+    sharp one and only removes the part of such an edge thinner than about smooth / (2
+    ``|grad f|``): the lip is blunt, as a real shell's is.  The solid is still Eqs. 14 and 15, with
+    its edges rounded rather than sharp; ``lip_smooth = cut_smooth = 0`` gives the sharp form.
 
     ``spec``: a :class:`ShellSpec`, the name of a shipped one (``SHELLS``), a path to a TOML
     spec file, or its parsed data.  ``seed`` drives the bump sizes, canal spine bends and

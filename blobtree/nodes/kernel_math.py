@@ -181,7 +181,7 @@ def atan2(y, x):
 
 @kernel
 def turn(y, x):
-    """atan2(y, x) as a fraction of a turn in [0, 1) (as ``texture.turn``)."""
+    """atan2(y, x) as a fraction of a turn in [0, 1) (as ``texture.mapping.turn``)."""
     t = atan2(y, x) / (2.0 * math.pi)
     if t < 0.0:
         t += 1.0
@@ -235,7 +235,7 @@ def _wrap(i, n, mode):
 @kernel
 def texel(p, t, u, v):
     """Bilinear colour of the texture block at params[t:] ([w, h, wrap, rgb rows in [0, 1]]),
-    as ``texture.sample``."""
+    as ``texture.mapping.sample``."""
     w, h, wrap = int(p[t]), int(p[t + 1]), int(p[t + 2])
     x = u * w - 0.5
     y = v * h - 0.5

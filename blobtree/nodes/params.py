@@ -119,7 +119,7 @@ def _iterable(value: Any) -> bool:
 @dataclass(frozen=True)
 class Image(Kind):
     """A texture image: an (H, W, 3) uint8 array (from a path, an array or a function of
-    (u, v), see :func:`blobtree.texture.load_image`); scene files store each image once."""
+    (u, v), see :func:`blobtree.texture.mapping.load_image`); scene files store each image once."""
 
     schema = "image (a key of $.images)"
 

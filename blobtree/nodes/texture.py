@@ -1,6 +1,6 @@
-"""The 2D texture map m of Section 3.4, with the paper's two methods (see ``blobtree.texture``):
-field-interpolated (each primitive's own (u, v)) and bounding surface (a tube around the
-helico-spiral, reached by following the field's gradient)."""
+"""The 2D texture map m of Section 3.4, with the paper's two methods (see
+``blobtree.texture.mapping``): field-interpolated (each primitive's own (u, v)) and bounding
+surface (a tube around the helico-spiral, reached by following the field's gradient)."""
 
 from __future__ import annotations
 

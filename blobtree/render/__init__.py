@@ -38,9 +38,8 @@ TileSource = Callable[[Any, Camera, list[Light], RenderSettings, list[Rect]],
 
 #: Tile sides a render picks from by default (``tile=None``): the largest that still gives every
 #: thread ``TILES_PER_THREAD`` tiles.  Each tile costs some 60-80 us of handing out, setting up
-#: and collecting (whorl126 at 1600x1600: 625 tiles of 64 took 0.375-0.406 s, 169 of 128
-#: 0.345-0.360 s); enough of them keep the cores busy to the end (the Murex at 768x768: the same
-#: time either way).
+#: and collecting (see bench/profile_tiles.py), so large images take 128-pixel tiles; enough
+#: tiles keep the cores busy to the end.
 TILE_SIDES = (128, 64)
 TILES_PER_THREAD = 48
 

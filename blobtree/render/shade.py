@@ -270,13 +270,12 @@ def _add_light(lights, j, look, row, lx, ly, lz, vx, vy, vz, lit):
 
 
 #: Full programs of at least this many instructions are specialised anew for each stretch of a
-#: packet's shadow rays, from where the rays start (the Murex's 2,681: 0.91x the time of its
-#: shadowed renders; starting there rather than on the cone's program, which spans the cone's
-#: whole stretch in depth, took 18% off its shadow rays' time; whorl126's 292 gain less
-#: than the specialising costs: its shadow rays start on the cone's program, then take the full
-#: one).  Shorter ones are specialised to the box around a packet's hits instead, for their
-#: normals and colours (:func:`_hits_program`: whorl126's renders 0.92x without shadows, 0.97x
-#: with, one thread each).
+#: packet's shadow rays, from where the rays start: the cone's program spans the cone's whole
+#: stretch in depth, and starting from the rays takes some 18% off the Murex's shadow rays'
+#: time (its 2,681 instructions; ``bench/ab.py``).  whorl126's 292 gain less than the
+#: specialising costs: its shadow rays start on the cone's program, then take the full one.
+#: Shorter programs are specialised to the box around a packet's hits instead, for their
+#: normals and colours (:func:`_hits_program`).
 STRETCH_MIN = 1000
 #: A packet's first stretch of shadow rays on the full program, in first candidate segments
 #: (each next stretch is twice as long).

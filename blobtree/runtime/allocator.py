@@ -5,13 +5,13 @@ from ``mmap`` when its heap has no free block that large, and unmaps them on ``f
 the threshold (at most to 32 MiB) only as such blocks are freed, and returns the free top of its
 heap to the system beyond ``M_TRIM_THRESHOLD`` (twice the mmap threshold).  Numpy takes its
 arrays from ``malloc``, and the mesher and the engine make many short-lived arrays of a few to a
-few hundred MiB, so most of them were fresh pages, each page a fault and a zeroing on first
-touch.  With the mmap threshold pinned at glibc's own maximum (32 MiB) and the heap's free top
-kept up to ``TRIM_THRESHOLD`` (256 MiB, or 1/32 of the machine's memory if less), repeated
-meshing reuses its memory: ``polygonize(whorl126, 256)`` 13,000 -> 260 page faults and 185 ->
-150 ms, at 512 27,000 -> 4,500 faults and 640 -> 560 ms; the Murex at 512 1-3% faster;
-rendering and the engine's 10^7 points unchanged.  The cost: a process keeps up to
-``TRIM_THRESHOLD`` of freed memory for reuse instead of returning it.
+few hundred MiB, so with glibc's defaults most of them are fresh pages, each page a fault and a
+zeroing on first touch.  With the mmap threshold pinned at glibc's own maximum (32 MiB) and the
+heap's free top kept up to ``TRIM_THRESHOLD`` (256 MiB, or 1/32 of the machine's memory if
+less), repeated meshing reuses its memory: ``polygonize(whorl126, 256)`` takes about 260 page
+faults where the defaults take 13,000 (tests/test_allocator.py checks the reuse,
+bench/bench_mesh.py times meshing); rendering and the engine are unaffected.  The cost: a
+process keeps up to ``TRIM_THRESHOLD`` of freed memory for reuse instead of returning it.
 
 :func:`pin_thresholds` runs when blobtree is imported.  It does nothing where the C library is
 not glibc, where the user has set glibc's own variables (``MALLOC_MMAP_THRESHOLD_``,
@@ -27,8 +27,8 @@ from collections.abc import Mapping
 #: blocks up to this size come from the heap and are reused (glibc's maximum for its heuristic)
 MMAP_THRESHOLD = 32 << 20
 #: free memory at the heap's top kept for reuse, at most (and at most 1/32 of the machine's):
-#: at 64 MiB whorl126's mesh at 256 was trimmed and mapped afresh on every call, at 128 MiB its
-#: mesh at 512; 512 MiB gained nothing more
+#: at 64 MiB whorl126's mesh at 256 is trimmed and mapped afresh on every call, at 128 MiB its
+#: mesh at 512; 512 MiB gains nothing more
 TRIM_THRESHOLD = 256 << 20
 #: mallopt's parameter numbers (malloc.h)
 M_TRIM_THRESHOLD, M_MMAP_THRESHOLD = -1, -3
