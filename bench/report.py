@@ -86,13 +86,18 @@ def date(entry: Entry) -> str:
 
 
 def latest_table(entries: list[Entry]) -> str:
-    """The newest figure per workload: workload, blobtree, peer, ratio, machine, commit."""
+    """The newest figure per workload: workload, blobtree, peer, ratio, machine (a letter, the
+    machines named below the table), commit."""
     groups = by_workload(entries)
     if not groups:
         return NONE_YET + "\n"
-    rows = [[w, seconds(r["blobtree_s"]), peer(r), ratio(r), machine(e["machine"]), e["commit"]]
-            for w, ((e, r), *_) in groups.items()]
-    return table(["workload", "blobtree", "peer", "ratio", "machine", "commit"], rows)
+    newest = [(w, e, r) for w, ((e, r), *_) in groups.items()]
+    names = list(dict.fromkeys(machine(e["machine"]) for _, e, _ in newest))
+    label = {name: chr(ord("A") + i) for i, name in enumerate(names)}
+    rows = [[w, seconds(r["blobtree_s"]), peer(r), ratio(r), label[machine(e["machine"])],
+             e["commit"]] for w, e, r in newest]
+    key = "".join(f"\nMachine {label[name]}: {name}.\n" for name in names)
+    return table(["workload", "blobtree", "peer", "ratio", "machine", "commit"], rows) + key
 
 
 def document(entries: list[Entry]) -> str:
