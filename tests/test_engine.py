@@ -187,7 +187,7 @@ def test_cell_sorted_blocks_and_order(monkeypatch):
     from blobtree.engine import GRID_MIN_POINTS, batch
     from blobtree.engine.specialize import cell_of
 
-    monkeypatch.setattr(batch, "BLOCK", 4096)
+    monkeypatch.setattr(batch, "PARTITION_BLOCK", 4096)
     tree = (bt.models.whorl126().bend(30.0, 2.0) | bt.Cone((0, 0, 0), (0, 3, 0), 0.5, 0.2)
             ) - bt.Torus(1.0, radius=0.4)
     prog = tree.program()

@@ -65,7 +65,7 @@ def test_backdrop_fades_from_top_to_bottom_and_background_makes_it_plain():
 def _occlusion_at(tree, points: np.ndarray, radius: float) -> np.ndarray:
     """The shading kernel's ambient occlusion (``shade._occlusions``) at surface points of
     ``tree``, each the hit of a ray straight down onto it."""
-    from blobtree.engine.batch import SUB, point_rows, value_rows
+    from blobtree.engine.batch import BATCH, point_rows, value_rows
     from blobtree.render import shade
 
     prog = tree.program()
@@ -81,7 +81,7 @@ def _occlusion_at(tree, points: np.ndarray, radius: float) -> np.ndarray:
     surf[:, [shade.NX, shade.NY, shade.NZ]] = -g / surf[:, shade.SLOPE, None]
     look = np.zeros(7)
     look[shade.OCCLUSION_RADIUS] = radius
-    hits = (np.empty(SUB, dtype=np.int64), np.empty((n, shade.OCCLUSION_SAMPLES)))
+    hits = (np.empty(BATCH, dtype=np.int64), np.empty((n, shade.OCCLUSION_SAMPLES)))
     shade._occlusions(code, params, boxes, (code, boxes, lips), lo, hi, n, rays, points - D, D,
                       look, surf, hits, point_rows(prog.depth), value_rows(prog.depth),
                       np.empty((prog.depth, 7)))

@@ -5,10 +5,10 @@ its box test per point, and points in random order fetch a different cell progra
 Here blocks of points are partitioned by grid cell (``Program.grid``) with a parallel counting
 sort (points in cells whose program is a lone zero are answered while counting, not sorted);
 the points of one cell then run that cell's short program together, each instruction looping
-over up to ``SUB`` points at once.  The loops have no per-point branches, so the compiler
+over up to ``BATCH`` points at once.  The loops have no per-point branches, so the compiler
 vectorises them (numpy's error model: no division checks inside them).
 
-The value stack holds one row of ``SUB`` values per entry.  A box test (BOX, PUSHPT, warps) skips
+The value stack holds one row of ``BATCH`` values per entry.  A box test (BOX, PUSHPT, warps) skips
 its subtree only when no point of the batch is inside; the other points of the batch then
 evaluate the subtree exactly (a node's field is 0 outside its box), so the results equal
 ``eval_point``'s.  Gradients and colours (:func:`eval_rows_full`) run ``eval_point``'s own steps
@@ -20,7 +20,20 @@ from __future__ import annotations
 import numpy as np
 
 from ..nodes import kernel_math
-from ..nodes.layout import FALLOFF, ROWS_SCRATCH
+from ..nodes.layout import (
+    ARG,
+    COLOR,
+    FALLOFF,
+    FIELD,
+    GRAD,
+    OFFSET,
+    OP,
+    POINT_COLUMNS,
+    RESULT_COLUMNS,
+    ROWS_SCRATCH,
+    SHADE,
+    SKIP,
+)
 from ..runtime.jit import kernel
 from ..runtime.threads import parallel_for, threads
 from .dispatch import (
@@ -52,11 +65,11 @@ from .interp import (
 from .specialize import Grid, Regions, cell_of
 
 #: Points per batch (the length of a value-stack row).
-SUB = 64
+BATCH = 64
 #: Lanes of a point level (``point_rows``) past the batch's points: at level 0, the least and
 #: greatest of each coordinate over them, so that a box test can often answer for the whole
 #: batch at once.
-LOWEST, HIGHEST = SUB, SUB + 1
+LOWEST, HIGHEST = BATCH, BATCH + 1
 #: Rows are computed in whole groups of W points, so a batch never ends in a scalar remainder
 #: loop (the lanes past the batch hold stale points whose values are ignored).  Small, so a
 #: packet's last few rays cost few lanes (32 took 3-4% more of a whorl126 render's samples,
@@ -120,16 +133,16 @@ def _push_rows(p, o, pts, pp, nb):
 
 @kernel(nrt=True)
 def value_rows(depth):
-    """The value stack of :func:`eval_rows`: depth rows of SUB values, and ``ROWS_SCRATCH``
+    """The value stack of :func:`eval_rows`: depth rows of BATCH values, and ``ROWS_SCRATCH``
     more for operators' batch kernels."""
-    return np.empty((depth + ROWS_SCRATCH, SUB))
+    return np.empty((depth + ROWS_SCRATCH, BATCH))
 
 
 @kernel(nrt=True)
 def point_rows(depth):
-    """The point stack of :func:`eval_rows`: for each of depth + 1 frames, rows x, y, z of SUB
+    """The point stack of :func:`eval_rows`: for each of depth + 1 frames, rows x, y, z of BATCH
     points and two lanes more (LOWEST and HIGHEST)."""
-    return np.zeros((depth + 1, 3, SUB + 2))
+    return np.zeros((depth + 1, 3, BATCH + 2))
 
 
 @kernel
@@ -137,7 +150,7 @@ def eval_rows(code, params, boxes, a, b, pts, nb, vs, tmp):
     """Run the program in rows a:b of code and boxes (skip targets relative to a) on the nb
     points pts[0, :, :nb] (rows x, y, z); the field is left in vs[0, :nb].  pts
     (:func:`point_rows`) is the point stack of warps, vs (:func:`value_rows`) the value stack,
-    tmp (depth, 7) scratch for operators without a batch kernel."""
+    tmp (depth, RESULT_COLUMNS) scratch for operators without a batch kernel."""
     n = b - a
     nw = (nb + W - 1) // W * W
     p = params
@@ -146,15 +159,15 @@ def eval_rows(code, params, boxes, a, b, pts, nb, vs, tmp):
     i = 0
     _span(pts, nb)
     while i < n:
-        op = code[a + i, 0]
-        o = code[a + i, 1]
+        op = code[a + i, OP]
+        o = code[a + i, OFFSET]
         kind = kind_of(op)
         if kind == K_PRIMITIVE:
             prim_rows(op, int(p[o + FALLOFF]), p, o, pts, pp, vs, sp, nw)
             sp += 1
             i += 1
         elif kind == K_OPERATOR:
-            k = code[a + i, 3]
+            k = code[a + i, ARG]
             combine_rows(op, vs, sp - k, k, p, o, nw, tmp)
             sp += 1 - k
             i += 1
@@ -162,7 +175,7 @@ def eval_rows(code, params, boxes, a, b, pts, nb, vs, tmp):
             if not _any_inside(boxes, a + i, pts, pp, nb):
                 _zero_row(vs, sp, nw)
                 sp += 1
-                i = code[a + i, 2]
+                i = code[a + i, SKIP]
                 continue
             if kind == K_PUSHPT:  # the warp's frame: an affine map of the current points
                 _push_rows(p, o, pts, pp, nb)
@@ -225,33 +238,33 @@ def _bucket_scatter(t0, t1, P, cell, offsets, xyz, src):
 
 @kernel
 def eval_rows_full(code, params, boxes, a, b, pts, nb, vs, ps):
-    """``interp.eval_point`` in mode 2 (field, gradient, colour) on the nb points pts[:nb] at
-    once: rows a:b of code and boxes as in :func:`eval_rows`, each instruction dispatched once
-    for all of them; point m keeps its own stacks vs[m] (depth, 7) and ps[m] (depth, 30) and
-    its results in vs[m, 0].  A point outside a box the batch enters evaluates the subtree to
-    the zero it would have skipped."""
+    """``interp.eval_point`` in mode SHADE (field, gradient, colour) on the nb points pts[:nb]
+    at once: rows a:b of code and boxes as in :func:`eval_rows`, each instruction dispatched once
+    for all of them; point m keeps its own stacks vs[m] (depth, RESULT_COLUMNS) and ps[m]
+    (depth, POINT_COLUMNS) and its results in vs[m, 0].  A point outside a box the batch enters
+    evaluates the subtree to the zero it would have skipped."""
     n = b - a
     p = params
     sp = 0
     pp = 0
     i = 0
     while i < n:
-        op = code[a + i, 0]
-        o = code[a + i, 1]
+        op = code[a + i, OP]
+        o = code[a + i, OFFSET]
         kind = kind_of(op)
         if kind == K_PRIMITIVE:
             for m in range(nb):
                 if outside(boxes, a + i, pts[m, 0], pts[m, 1], pts[m, 2]):
-                    push_zero(vs[m], sp, 2)
+                    push_zero(vs[m], sp, SHADE)
                 else:
-                    push_primitive(op, code, a + i, p, o, pts[m, 0], pts[m, 1], pts[m, 2], 2,
+                    push_primitive(op, code, a + i, p, o, pts[m, 0], pts[m, 1], pts[m, 2], SHADE,
                                    vs[m], sp)
             sp += 1
             i += 1
         elif kind == K_OPERATOR:
-            k = code[a + i, 3]
+            k = code[a + i, ARG]
             for m in range(nb):
-                combine(op, vs[m], sp - k, k, p, o, 2)
+                combine(op, vs[m], sp - k, k, p, o, SHADE)
             sp += 1 - k
             i += 1
         elif kind == K_BOX or kind == K_PUSHPT or kind == K_WARP:
@@ -262,32 +275,32 @@ def eval_rows_full(code, params, boxes, a, b, pts, nb, vs, ps):
                     break
             if not inside:
                 for m in range(nb):
-                    push_zero(vs[m], sp, 2)
+                    push_zero(vs[m], sp, SHADE)
                 sp += 1
-                i = code[a + i, 2]
+                i = code[a + i, SKIP]
                 continue
             if kind == K_PUSHPT:
                 pp += 1
                 for m in range(nb):
                     pts[m, 0], pts[m, 1], pts[m, 2] = push_frame(p, o, pts[m, 0], pts[m, 1],
-                                                                 pts[m, 2], ps[m], pp, 2)
+                                                                 pts[m, 2], ps[m], pp, SHADE)
             elif kind == K_WARP:
                 for m in range(nb):
                     pts[m, 0], pts[m, 1], pts[m, 2] = apply_warp(op, p, o, pts[m, 0], pts[m, 1],
-                                                                 pts[m, 2], ps[m], pp, 2)
+                                                                 pts[m, 2], ps[m], pp, SHADE)
             i += 1
         elif kind == K_POPPT:
             for m in range(nb):
-                pts[m, 0], pts[m, 1], pts[m, 2] = pop_frame(vs[m], sp - 1, ps[m], pp, 2)
+                pts[m, 0], pts[m, 1], pts[m, 2] = pop_frame(vs[m], sp - 1, ps[m], pp, SHADE)
             pp -= 1
             i += 1
         elif kind == K_PAINT:
             for m in range(nb):
-                paint_top(op, p, o, pts[m, 0], pts[m, 1], pts[m, 2], vs[m], sp - 1, 2)
+                paint_top(op, p, o, pts[m, 0], pts[m, 1], pts[m, 2], vs[m], sp - 1, SHADE)
             i += 1
         else:  # K_ZERO
             for m in range(nb):
-                push_zero(vs[m], sp, 2)
+                push_zero(vs[m], sp, SHADE)
             sp += 1
             i += 1
 
@@ -295,17 +308,17 @@ def eval_rows_full(code, params, boxes, a, b, pts, nb, vs, ps):
 @kernel(nrt=True, nogil=True)
 def _eval_runs(t0, t1, start, gc, gb, params, first, xyz, depth, slab, vals):
     """Evaluate slabs t0..t1 - 1 of ``slab`` cell-sorted points of xyz (slabs, so crowded cells
-    spread over the threads), each cell's run in batches of SUB: the field into vals[:, 0], or
-    with vals (M, 7) also the gradient and colour (:func:`eval_rows_full`)."""
+    spread over the threads), each cell's run in batches of BATCH: the field into vals[:, 0], or
+    with vals (M, RESULT_COLUMNS) also the gradient and colour (:func:`eval_rows_full`)."""
     m = xyz.shape[0]
-    full = vals.shape[1] == 7
+    full = vals.shape[1] == RESULT_COLUMNS
     pts = point_rows(depth)
     vs = value_rows(depth)
-    tmp = np.empty((depth, 7))
-    lanes = SUB if full else 0  # each point's own stacks, for eval_rows_full
+    tmp = np.empty((depth, RESULT_COLUMNS))
+    lanes = BATCH if full else 0  # each point's own stacks, for eval_rows_full
     points = np.empty((lanes, 3))
-    stacks = np.empty((lanes, depth, 7))
-    frames = np.empty((lanes, depth, 30))
+    stacks = np.empty((lanes, depth, RESULT_COLUMNS))
+    frames = np.empty((lanes, depth, POINT_COLUMNS))
     for t in range(t0, t1):
         s0, s1 = t * slab, min(m, (t + 1) * slab)
         c = np.searchsorted(first, s0, side="right") - 1
@@ -313,7 +326,7 @@ def _eval_runs(t0, t1, start, gc, gb, params, first, xyz, depth, slab, vals):
         while s < s1:
             while first[c + 1] <= s:
                 c += 1
-            nb = min(SUB, first[c + 1] - s, s1 - s)
+            nb = min(BATCH, first[c + 1] - s, s1 - s)
             if full:
                 for k in range(nb):
                     for r in range(3):
@@ -321,7 +334,7 @@ def _eval_runs(t0, t1, start, gc, gb, params, first, xyz, depth, slab, vals):
                 eval_rows_full(gc, params, gb, start[c], start[c + 1], points, nb, stacks,
                                frames)
                 for k in range(nb):
-                    for r in range(7):
+                    for r in range(RESULT_COLUMNS):
                         vals[s + k, r] = stacks[k, 0, r]
             else:
                 for r in range(3):
@@ -337,18 +350,18 @@ def _eval_runs(t0, t1, start, gc, gb, params, first, xyz, depth, slab, vals):
 def put_back(k0, k1, vals, src, out_f, out_g, out_c):
     """Results k0..k1 - 1 back in the points' order, vals[k] being point src[k]'s, split into
     the field, gradient and colour."""
-    full = vals.shape[1] == 7
+    full = vals.shape[1] == RESULT_COLUMNS
     for k in range(k0, k1):
         j = src[k]
-        out_f[j] = vals[k, 0]
+        out_f[j] = vals[k, FIELD]
         if full:
             for r in range(3):
-                out_g[j, r] = vals[k, 1 + r]
-                out_c[j, r] = vals[k, 4 + r]
+                out_g[j, r] = vals[k, GRAD + r]
+                out_c[j, r] = vals[k, COLOR + r]
 
 
 #: Points partitioned at a time (scratch: 40 bytes per point of a block, 88 with gradients).
-BLOCK = 1 << 20
+PARTITION_BLOCK = 1 << 20
 #: Sorted points per evaluation task.
 SLAB = 1 << 13
 
@@ -365,14 +378,15 @@ def eval_sorted(grid: Grid, params: np.ndarray, depth: int, P: np.ndarray, out_f
     nparts = threads()
     counts = np.empty((nparts, ncell), dtype=np.int64)
     first = np.zeros(ncell + 1, dtype=np.int64)
-    m = min(len(P), BLOCK)
+    m = min(len(P), PARTITION_BLOCK)
     cell, src = np.empty(m, dtype=np.int32), np.empty(m, dtype=np.int32)
-    xyz, vals = np.empty((m, 3)), np.empty((m, 1 if out_g is None else 7))
+    xyz, vals = np.empty((m, 3)), np.empty((m, 1 if out_g is None else RESULT_COLUMNS))
     if out_g is None:
         out_g = out_c = np.empty((0, 3))
-    for a in range(0, len(P), BLOCK):
-        Q = P[a:a + BLOCK]
-        f, g, c = out_f[a:a + BLOCK], out_g[a:a + BLOCK], out_c[a:a + BLOCK]
+    for a in range(0, len(P), PARTITION_BLOCK):
+        end = a + PARTITION_BLOCK
+        Q = P[a:end]
+        f, g, c = out_f[a:end], out_g[a:end], out_c[a:end]
         # A zero field's (final where no cell holds the point): written on this thread, since
         # two threads touching fresh pages at once can take ten times as long (docs/engine.md).
         f[:], g[:], c[:] = 0.0, 0.0, DEFAULT_GREY

@@ -5,7 +5,7 @@ your own kernels).
 The program is postfix: primitives push (field, gradient, colour) on a value stack, operators pop
 their children and push the result, warps push a transformed point on a point stack.  Every
 primitive and every BOX instruction first tests its box; a miss pushes 0 and jumps over the
-subtree (``code[i, 2]``), so a subtree whose box misses the point costs one test.  Each node
+subtree (``code[i, SKIP]``), so a subtree whose box misses the point costs one test.  Each node
 type's maths comes from its own kernels through ``dispatch``.
 
 ``eval_point`` and the two bound passes (``_lipschitz``, ``_bounded``) are compiled once and
@@ -35,7 +35,33 @@ from ..nodes.kernel_math import (
     texel,
     to_canonical,
 )
-from ..nodes.layout import ABOVE, BELOW, BOUND, FALLOFF, FRAME_NORM, MAP_NORM
+from ..nodes.layout import (
+    ABOVE,
+    ARG,
+    BELOW,
+    BOUND,
+    COLOR,
+    COLUMNS,
+    FALLOFF,
+    FALLS,
+    FIELD,
+    FRAME_NORM,
+    GRAD,
+    GRADIENT,
+    JACOBIAN,
+    MAP_NORM,
+    OFFSET,
+    OP,
+    POINT,
+    POINT_COLUMNS,
+    REGION,
+    RISES,
+    SAVED_BOX,
+    SHADE,
+    SKIP,
+    VALUE,
+    WARP,
+)
 from ..runtime.jit import kernel
 from .dispatch import (
     K_BOX,
@@ -65,11 +91,6 @@ from .dispatch import (
 )
 
 DEFAULT_GREY = 0.8
-#: Columns of the value stack: field, gradient, colour; in the bound passes, columns RISE and
-#: FALL hold a row's bounds on how fast its field rises and falls along a cone of directions
-#: (:func:`_lipschitz`).
-COLUMNS = 9
-RISE, FALL = 7, 8
 
 
 @kernel(nrt=True)
@@ -77,7 +98,7 @@ def scratch(depth):
     """Per-thread stacks for ``eval_point`` and the bound passes: values (depth, COLUMNS):
     field, gradient, colour (and a bound's rise and fall); and points (depth, 30): the point to
     restore, the Jacobian to the outer frame, warp scratch."""
-    return np.empty((depth, COLUMNS)), np.empty((depth, 30))
+    return np.empty((depth, COLUMNS)), np.empty((depth, POINT_COLUMNS))
 
 
 @kernel
@@ -103,21 +124,21 @@ def misses(boxes, i, lox, loy, loz, hix, hiy, hiz):
 
 @kernel
 def push_zero(vs, sp, mode):
-    vs[sp, 0] = 0.0
-    if mode == 0:
+    vs[sp, FIELD] = 0.0
+    if mode == VALUE:
         return
-    vs[sp, 1] = 0.0
-    vs[sp, 2] = 0.0
-    vs[sp, 3] = 0.0
-    vs[sp, 4] = DEFAULT_GREY
-    vs[sp, 5] = DEFAULT_GREY
-    vs[sp, 6] = DEFAULT_GREY
+    vs[sp, GRAD] = 0.0
+    vs[sp, GRAD + 1] = 0.0
+    vs[sp, GRAD + 2] = 0.0
+    vs[sp, COLOR] = DEFAULT_GREY
+    vs[sp, COLOR + 1] = DEFAULT_GREY
+    vs[sp, COLOR + 2] = DEFAULT_GREY
 
 
 @kernel(inline="always")
 def apply_warp(op, p, o, x, y, z, ps, pp, mode):
-    """A warp's query map at the frame point (x, y, z); with mode > 0 its Jacobian is chained
-    into ps[pp, 3:12] (the Jacobian from the point stack's frame to the outer one).
+    """A warp's query map at the frame point (x, y, z); with mode >= GRADIENT its Jacobian is
+    chained into ps[pp, 3:12] (the Jacobian from the point stack's frame to the outer one).
 
     params[o:o + 9] is the signed permutation Pm to the warp's canonical axes: q = Pm^T w(Pm x)
     and J = Pm^T Jc Pm.  Compiled into each caller with the warp's map: where mode is the
@@ -127,7 +148,7 @@ def apply_warp(op, p, o, x, y, z, ps, pp, mode):
     X, Y, Z = to_canonical(p, o, x, y, z)
     qx, qy, qz, j00, j01, j02, j10, j11, j12, j20, j21, j22 = warp_map(op, p, o, X, Y, Z)
     nx, ny, nz = from_canonical(p, o, qx, qy, qz)
-    if mode == 0:
+    if mode == VALUE:
         return nx, ny, nz
     for col in range(3):  # column col of Jc Pm, then of Pm^T (Jc Pm)
         m0, m1, m2 = p[o + col], p[o + 3 + col], p[o + 6 + col]
@@ -135,15 +156,15 @@ def apply_warp(op, p, o, x, y, z, ps, pp, mode):
         a1 = j10 * m0 + j11 * m1 + j12 * m2
         a2 = j20 * m0 + j21 * m1 + j22 * m2
         for r in range(3):
-            ps[pp, 12 + 3 * r + col] = p[o + r] * a0 + p[o + 3 + r] * a1 + p[o + 6 + r] * a2
+            ps[pp, WARP + 3 * r + col] = p[o + r] * a0 + p[o + 3 + r] * a1 + p[o + 6 + r] * a2
     for r in range(3):  # times the Jacobian so far
         for col in range(3):
             acc = 0.0
             for m in range(3):
-                acc += ps[pp, 12 + 3 * r + m] * ps[pp, 3 + 3 * m + col]
-            ps[pp, 21 + 3 * r + col] = acc
+                acc += ps[pp, WARP + 3 * r + m] * ps[pp, JACOBIAN + 3 * m + col]
+            ps[pp, WARP + 9 + 3 * r + col] = acc
     for q in range(9):
-        ps[pp, 3 + q] = ps[pp, 21 + q]
+        ps[pp, JACOBIAN + q] = ps[pp, WARP + 9 + q]
     return nx, ny, nz
 
 
@@ -151,11 +172,11 @@ def apply_warp(op, p, o, x, y, z, ps, pp, mode):
 def push_frame(p, o, x, y, z, ps, pp, mode):
     """Enter a warp's frame (PUSHPT): save the point (and, for gradients, the frame map's
     Jacobian) in ps[pp]; return the point in the frame."""
-    ps[pp, 0], ps[pp, 1], ps[pp, 2] = x, y, z  # the point to restore
-    if mode > 0:  # the Jacobian so far, for the gradient
+    ps[pp, POINT], ps[pp, POINT + 1], ps[pp, POINT + 2] = x, y, z  # the point to restore
+    if mode >= GRADIENT:  # the Jacobian so far, for the gradient
         for r in range(3):
             for c in range(3):
-                ps[pp, 3 + 3 * r + c] = p[o + 4 * r + c]
+                ps[pp, JACOBIAN + 3 * r + c] = p[o + 4 * r + c]
     return map_point(p, o, x, y, z)
 
 
@@ -163,19 +184,21 @@ def push_frame(p, o, x, y, z, ps, pp, mode):
 def pop_frame(vs, t, ps, pp, mode):
     """Leave a warp's frame (POPPT): the gradient on top of the stack back to the outer frame,
     g <- J^T g; return the saved point."""
-    if mode > 0:
-        gx, gy, gz = vs[t, 1], vs[t, 2], vs[t, 3]
-        vs[t, 1] = ps[pp, 3] * gx + ps[pp, 6] * gy + ps[pp, 9] * gz
-        vs[t, 2] = ps[pp, 4] * gx + ps[pp, 7] * gy + ps[pp, 10] * gz
-        vs[t, 3] = ps[pp, 5] * gx + ps[pp, 8] * gy + ps[pp, 11] * gz
-    return ps[pp, 0], ps[pp, 1], ps[pp, 2]
+    if mode >= GRADIENT:
+        gx, gy, gz = vs[t, GRAD], vs[t, GRAD + 1], vs[t, GRAD + 2]
+        j = JACOBIAN
+        vs[t, GRAD] = ps[pp, j] * gx + ps[pp, j + 3] * gy + ps[pp, j + 6] * gz
+        vs[t, GRAD + 1] = ps[pp, j + 1] * gx + ps[pp, j + 4] * gy + ps[pp, j + 7] * gz
+        vs[t, GRAD + 2] = ps[pp, j + 2] * gx + ps[pp, j + 5] * gy + ps[pp, j + 8] * gz
+    return ps[pp, POINT], ps[pp, POINT + 1], ps[pp, POINT + 2]
 
 
 @kernel(inline="always")
 def paint_top(op, p, o, x, y, z, vs, t, mode):
-    """A paint node (mode 2): colour the value on top of the stack where its field is > 0."""
-    if mode > 1 and vs[t, 0] > 0.0:
-        vs[t, 4], vs[t, 5], vs[t, 6] = paint(op, p, o, x, y, z, vs[t, 1], vs[t, 2], vs[t, 3])
+    """A paint node (mode SHADE): colour the value on top of the stack where its field is > 0."""
+    if mode >= SHADE and vs[t, FIELD] > 0.0:
+        r, g, b = paint(op, p, o, x, y, z, vs[t, GRAD], vs[t, GRAD + 1], vs[t, GRAD + 2])
+        vs[t, COLOR], vs[t, COLOR + 1], vs[t, COLOR + 2] = r, g, b
 
 
 @kernel(inline="always")
@@ -187,27 +210,27 @@ def push_primitive(op, code, i, p, o, px, py, pz, mode, vs, sp):
         push_zero(vs, sp, mode)
         return
     fid = int(p[o + FALLOFF])
-    vs[sp, 0] = fo(fid, s)
-    if mode == 0:
+    vs[sp, FIELD] = fo(fid, s)
+    if mode == VALUE:
         return
     d = fo_ds(fid, s)
     gx, gy, gz = d * sx, d * sy, d * sz
-    vs[sp, 1] = p[o] * gx + p[o + 4] * gy + p[o + 8] * gz
-    vs[sp, 2] = p[o + 1] * gx + p[o + 5] * gy + p[o + 9] * gz
-    vs[sp, 3] = p[o + 2] * gx + p[o + 6] * gy + p[o + 10] * gz
-    if mode > 1 and code[i, 3] >= 0:  # painted by a field-interpolated texture
+    vs[sp, GRAD] = p[o] * gx + p[o + 4] * gy + p[o + 8] * gz
+    vs[sp, GRAD + 1] = p[o + 1] * gx + p[o + 5] * gy + p[o + 9] * gz
+    vs[sp, GRAD + 2] = p[o + 2] * gx + p[o + 6] * gy + p[o + 10] * gz
+    if mode >= SHADE and code[i, ARG] >= 0:  # painted by a field-interpolated texture
         tu, tv = prim_uv(op, p, o, qx, qy, qz)
-        vs[sp, 4], vs[sp, 5], vs[sp, 6] = texel(p, code[i, 3], tu, tv)
+        vs[sp, COLOR], vs[sp, COLOR + 1], vs[sp, COLOR + 2] = texel(p, code[i, ARG], tu, tv)
     else:
-        vs[sp, 4] = DEFAULT_GREY
-        vs[sp, 5] = DEFAULT_GREY
-        vs[sp, 6] = DEFAULT_GREY
+        vs[sp, COLOR] = DEFAULT_GREY
+        vs[sp, COLOR + 1] = DEFAULT_GREY
+        vs[sp, COLOR + 2] = DEFAULT_GREY
 
 
 @kernel
 def eval_point(code, params, boxes, x, y, z, mode, vs, ps):
-    """Field at (x, y, z); mode 1 also leaves the gradient in vs[0, 1:4], mode 2 the gradient
-    and the colour in vs[0, 4:7] (0: field only, for tracing; 2: everything, for shading).
+    """Field at (x, y, z); mode GRADIENT also leaves the gradient in vs[0, GRAD:GRAD + 3], mode
+    SHADE also the colour in vs[0, COLOR:COLOR + 3] (VALUE: the field only, for tracing).
     Compiled once for all modes (``jit.kernel`` types constants as plain values): branches skip
     the work a mode does not need.  (A copy per mode, with that work folded away, traces the
     Murex about 14% faster but takes 33 s more to compile on a first run.)"""
@@ -218,8 +241,8 @@ def eval_point(code, params, boxes, x, y, z, mode, vs, ps):
     px, py, pz = x, y, z
     i = 0
     while i < n:
-        op = code[i, 0]
-        o = code[i, 1]
+        op = code[i, OP]
+        o = code[i, OFFSET]
         kind = kind_of(op)
         if kind == K_PRIMITIVE:
             if outside(boxes, i, px, py, pz):
@@ -229,7 +252,7 @@ def eval_point(code, params, boxes, x, y, z, mode, vs, ps):
             sp += 1
             i += 1
         elif kind == K_OPERATOR:
-            k = code[i, 3]
+            k = code[i, ARG]
             b = sp - k
             combine(op, vs, b, k, p, o, mode)
             sp = b + 1
@@ -238,7 +261,7 @@ def eval_point(code, params, boxes, x, y, z, mode, vs, ps):
             if outside(boxes, i, px, py, pz):
                 push_zero(vs, sp, mode)
                 sp += 1
-                i = code[i, 2]
+                i = code[i, SKIP]
                 continue
             if kind == K_PUSHPT:
                 pp += 1
@@ -257,7 +280,7 @@ def eval_point(code, params, boxes, x, y, z, mode, vs, ps):
             push_zero(vs, sp, mode)
             sp += 1
             i += 1
-    return vs[0, 0]
+    return vs[0, FIELD]
 
 
 @kernel(inline="always")
@@ -293,7 +316,7 @@ def carry(kind, op, p, o, lip, lox, loy, loz, hix, hiy, hiz, rad, scratch):
         return cx - ex, cy - ey, cz - ez, cx + ex, cy + ey, cz + ez, rad * p[o + FRAME_NORM]
     cx, cy, cz = 0.5 * (lox + hix), 0.5 * (loy + hiy), 0.5 * (loz + hiz)
     reach = lip * min(rad, half_diagonal(lox, loy, loz, hix, hiy, hiz))
-    wx, wy, wz = apply_warp(op, p, o, cx, cy, cz, scratch, 0, 0)
+    wx, wy, wz = apply_warp(op, p, o, cx, cy, cz, scratch, 0, VALUE)
     return wx - reach, wy - reach, wz - reach, wx + reach, wy + reach, wz + reach, reach
 
 
@@ -303,7 +326,7 @@ def support_misses(code, p, lips, i, lox, loy, loz, hix, hiy, hiz, rad):
     [lo, hi] and the ball of radius ``rad`` about its centre)?  True when its bound on ``|grad f|``
     there is 0 (its field is constant there) and it is zero at the centre: a tighter test than
     its box's (a ball's support against a box, a cone's distance from its axis)."""
-    op, o = code[i, 0], code[i, 1]
+    op, o = code[i, OP], code[i, OFFSET]
     cx, cy, cz, hx, hy, hz = map_box(p, o, lox, loy, loz, hix, hiy, hiz)
     if prim_lipschitz(op, p, o, lips[i], cx, cy, cz, hx, hy, hz, rad * p[o + MAP_NORM]) > 0.0:
         return False
@@ -328,32 +351,32 @@ def _rule(op, p, o, vs, col, b, sp):
 @kernel(inline="always")
 def _prim_moves(op, p, o, pp, lox, loy, loz, hix, hiy, hiz, dx, dy, dz, spread, bound, vs, sp):
     """How fast primitive op's field can rise and fall over the box along the cone (unit
-    directions within ``spread`` of d), into vs[sp, RISE] and vs[sp, FALL]: its ``rise``
+    directions within ``spread`` of d), into vs[sp, RISES] and vs[sp, FALLS]: its ``rise``
     kernel outside warps, at most its plain bound; the fall is the plain bound (only a
     difference's carving needs it, and its ``rise`` along -d would cost every primitive a
     second call)."""
-    vs[sp, RISE] = vs[sp, FALL] = bound
+    vs[sp, RISES] = vs[sp, FALLS] = bound
     if pp == 0:
         rise = prim_rise(op, p, o, lox, loy, loz, hix, hiy, hiz, dx, dy, dz, spread)
         if rise >= 0.0:
-            vs[sp, RISE] = min(rise, bound)
+            vs[sp, RISES] = min(rise, bound)
 
 
 @kernel(inline="always")
 def _op_moves(op, p, o, vs, b, sp, bound):
-    """An operator's rise and fall along the cone, into vs[b, RISE] and vs[b, FALL]: its rule
+    """An operator's rise and fall along the cone, into vs[b, RISES] and vs[b, FALLS]: its rule
     over what each child's moves do to it (``MONOTONE``: a child it grows with gives its rise
     to the rise and its fall to the fall, one it shrinks with the other way round, one it moves
-    either way with its plain bound vs[j, 0] to both), at most its own ``bound``."""
+    either way with its plain bound vs[j, FIELD] to both), at most its own ``bound``."""
     for j in range(b, sp):
         sign = MONOTONE_FIRST[op] if j == b else MONOTONE_REST[op]
         if sign == 0:
-            vs[j, RISE] = vs[j, FALL] = vs[j, 0]
+            vs[j, RISES] = vs[j, FALLS] = vs[j, FIELD]
         elif sign < 0:
-            vs[j, RISE], vs[j, FALL] = vs[j, FALL], vs[j, RISE]
-    rise = min(_rule(op, p, o, vs, RISE, b, sp), bound)
-    fall = min(_rule(op, p, o, vs, FALL, b, sp), bound)
-    vs[b, RISE], vs[b, FALL] = rise, fall
+            vs[j, RISES], vs[j, FALLS] = vs[j, FALLS], vs[j, RISES]
+    rise = min(_rule(op, p, o, vs, RISES, b, sp), bound)
+    fall = min(_rule(op, p, o, vs, FALLS, b, sp), bound)
+    vs[b, RISES], vs[b, FALLS] = rise, fall
 
 
 @kernel
@@ -366,7 +389,7 @@ def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox,
     primitive outside warps rises as its ``rise`` kernel says, 0 where the whole box moves
     away from it: :func:`_prim_moves`; an operator by :func:`_op_moves`; anything else as fast
     as its plain bound).  Returns (the bound, the rise: the bound when ``spread`` < 0).  Bounds
-    in vs[:, 0], rises and falls in vs[:, RISE] and vs[:, FALL], the regions saved across warps
+    in vs[:, 0], rises and falls in vs[:, RISES] and vs[:, FALLS], the regions saved across warps
     in vs[pp, 1:7] (no field values: see :func:`_bounded`).  The region also lies within the
     ball of radius ``rad`` about the box's centre (:func:`carry`: a warp's region is a ball);
     leaving a warp, that is again the box's own."""
@@ -377,57 +400,58 @@ def _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox,
     rad = half_diagonal(lox, loy, loz, hix, hiy, hiz)
     i = 0
     while i < n:
-        op = code[i, 0]
+        op = code[i, OP]
         kind = kind_of(op)
         if kind == K_PRIMITIVE:
-            vs[sp, 0] = vs[sp, RISE] = vs[sp, FALL] = 0.0
+            vs[sp, FIELD] = vs[sp, RISES] = vs[sp, FALLS] = 0.0
             if not misses(boxes, i, lox, loy, loz, hix, hiy, hiz):
-                o = code[i, 1]
-                vs[sp, 0] = _prim_bound(op, params, o, lips[i], ray, pp, lox, loy, loz, hix, hiy,
-                                        hiz, rad, ox, oy, oz, dx, dy, dz, length)
+                o = code[i, OFFSET]
+                vs[sp, FIELD] = _prim_bound(op, params, o, lips[i], ray, pp, lox, loy, loz, hix,
+                                            hiy, hiz, rad, ox, oy, oz, dx, dy, dz, length)
                 if rising:
                     _prim_moves(op, params, o, pp, lox, loy, loz, hix, hiy, hiz, dx, dy, dz,
-                                spread, vs[sp, 0], vs, sp)
+                                spread, vs[sp, FIELD], vs, sp)
             sp += 1
             i += 1
         elif kind == K_OPERATOR:
-            b = sp - code[i, 3]
-            o = code[i, 1]
+            b = sp - code[i, ARG]
+            o = code[i, OFFSET]
             bound = _rule(op, params, o, vs, 0, b, sp)
             if rising:
                 _op_moves(op, params, o, vs, b, sp, bound)
-            vs[b, 0] = bound
+            vs[b, FIELD] = bound
             sp = b + 1
             i += 1
         elif kind == K_BOX or kind == K_PUSHPT or kind == K_WARP:
             if misses(boxes, i, lox, loy, loz, hix, hiy, hiz):
-                vs[sp, 0] = vs[sp, RISE] = vs[sp, FALL] = 0.0
+                vs[sp, FIELD] = vs[sp, RISES] = vs[sp, FALLS] = 0.0
                 sp += 1
-                i = code[i, 2]
+                i = code[i, SKIP]
                 continue
             if kind == K_PUSHPT:  # save the region
                 pp += 1
-                vs[pp, 1], vs[pp, 2], vs[pp, 3] = lox, loy, loz
-                vs[pp, 4], vs[pp, 5], vs[pp, 6] = hix, hiy, hiz
+                vs[pp, REGION], vs[pp, REGION + 1], vs[pp, REGION + 2] = lox, loy, loz
+                vs[pp, REGION + 3], vs[pp, REGION + 4], vs[pp, REGION + 5] = hix, hiy, hiz
             if kind != K_BOX:
-                lox, loy, loz, hix, hiy, hiz, rad = carry(kind, op, params, code[i, 1], lips[i],
-                                                           lox, loy, loz, hix, hiy, hiz, rad, vs)
+                lox, loy, loz, hix, hiy, hiz, rad = carry(kind, op, params, code[i, OFFSET],
+                                                           lips[i], lox, loy, loz, hix, hiy, hiz,
+                                                           rad, vs)
             i += 1
         elif kind == K_POPPT:  # (a warped subtree moves as fast as its bound)
-            vs[sp - 1, 0] *= lips[i]
-            vs[sp - 1, RISE] = vs[sp - 1, FALL] = vs[sp - 1, 0]
-            lox, loy, loz = vs[pp, 1], vs[pp, 2], vs[pp, 3]
-            hix, hiy, hiz = vs[pp, 4], vs[pp, 5], vs[pp, 6]
+            vs[sp - 1, FIELD] *= lips[i]
+            vs[sp - 1, RISES] = vs[sp - 1, FALLS] = vs[sp - 1, FIELD]
+            lox, loy, loz = vs[pp, REGION], vs[pp, REGION + 1], vs[pp, REGION + 2]
+            hix, hiy, hiz = vs[pp, REGION + 3], vs[pp, REGION + 4], vs[pp, REGION + 5]
             rad = half_diagonal(lox, loy, loz, hix, hiy, hiz)
             pp -= 1
             i += 1
         elif kind == K_PAINT:
             i += 1
         else:  # K_ZERO
-            vs[sp, 0] = vs[sp, RISE] = vs[sp, FALL] = 0.0
+            vs[sp, FIELD] = vs[sp, RISES] = vs[sp, FALLS] = 0.0
             sp += 1
             i += 1
-    return vs[0, 0], (vs[0, RISE] if rising else vs[0, 0])
+    return vs[0, FIELD], (vs[0, RISES] if rising else vs[0, FIELD])
 
 
 @kernel
@@ -453,21 +477,21 @@ def _bounded(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox, o
     rad = half_diagonal(lox, loy, loz, hix, hiy, hiz)
     i = 0
     while i < n:
-        op = code[i, 0]
+        op = code[i, OP]
         kind = kind_of(op)
         if kind == K_PRIMITIVE:
-            vs[sp, 0] = vs[sp, BOUND] = vs[sp, BELOW] = vs[sp, ABOVE] = 0.0
+            vs[sp, FIELD] = vs[sp, BOUND] = vs[sp, BELOW] = vs[sp, ABOVE] = 0.0
             if not misses(boxes, i, lox, loy, loz, hix, hiy, hiz):
-                vs[sp, BOUND] = _prim_bound(op, p, code[i, 1], lips[i], ray, pp, lox, loy, loz,
+                vs[sp, BOUND] = _prim_bound(op, p, code[i, OFFSET], lips[i], ray, pp, lox, loy, loz,
                                             hix, hiy, hiz, rad, ox, oy, oz, dx, dy, dz, length)
                 if not outside(boxes, i, px, py, pz):
-                    push_primitive(op, code, i, p, code[i, 1], px, py, pz, 0, vs, sp)
+                    push_primitive(op, code, i, p, code[i, OFFSET], px, py, pz, VALUE, vs, sp)
             sp += 1
             i += 1
         elif kind == K_OPERATOR:
-            k = code[i, 3]
+            k = code[i, ARG]
             b = sp - k
-            o = code[i, 1]
+            o = code[i, OFFSET]
             reach = math.sqrt((hix - lox) ** 2 + (hiy - loy) ** 2 + (hiz - loz) ** 2)
             bound, below, above = op_bound(op, vs, b, k, p, o, reach)  # before combine
             if bound < 0.0:
@@ -478,19 +502,19 @@ def _bounded(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox, o
             i += 1
         elif kind == K_BOX or kind == K_PUSHPT or kind == K_WARP:
             if misses(boxes, i, lox, loy, loz, hix, hiy, hiz):
-                vs[sp, 0] = vs[sp, BOUND] = vs[sp, BELOW] = vs[sp, ABOVE] = 0.0
+                vs[sp, FIELD] = vs[sp, BOUND] = vs[sp, BELOW] = vs[sp, ABOVE] = 0.0
                 sp += 1
-                i = code[i, 2]
+                i = code[i, SKIP]
                 continue
-            o = code[i, 1]
+            o = code[i, OFFSET]
             if kind == K_PUSHPT:  # save the point and region, carry them into the warp's frame
                 pp += 1
-                ps[pp, 0], ps[pp, 1], ps[pp, 2] = px, py, pz
-                ps[pp, 3], ps[pp, 4], ps[pp, 5] = lox, loy, loz
-                ps[pp, 6], ps[pp, 7], ps[pp, 8] = hix, hiy, hiz
+                ps[pp, POINT], ps[pp, POINT + 1], ps[pp, POINT + 2] = px, py, pz
+                ps[pp, SAVED_BOX], ps[pp, SAVED_BOX + 1], ps[pp, SAVED_BOX + 2] = lox, loy, loz
+                ps[pp, SAVED_BOX + 3], ps[pp, SAVED_BOX + 4], ps[pp, SAVED_BOX + 5] = hix, hiy, hiz
                 px, py, pz = map_point(p, o, px, py, pz)
             elif kind == K_WARP:
-                px, py, pz = apply_warp(op, p, o, px, py, pz, ps, 0, 0)
+                px, py, pz = apply_warp(op, p, o, px, py, pz, ps, 0, VALUE)
             if kind != K_BOX:
                 lox, loy, loz, hix, hiy, hiz, rad = carry(kind, op, p, o, lips[i], lox, loy,
                                                            loz, hix, hiy, hiz, rad, ps)
@@ -499,20 +523,20 @@ def _bounded(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, ox, o
             vs[sp - 1, BOUND] *= lips[i]
             vs[sp - 1, BELOW] /= lips[i]
             vs[sp - 1, ABOVE] /= lips[i]
-            px, py, pz = ps[pp, 0], ps[pp, 1], ps[pp, 2]
-            lox, loy, loz = ps[pp, 3], ps[pp, 4], ps[pp, 5]
-            hix, hiy, hiz = ps[pp, 6], ps[pp, 7], ps[pp, 8]
+            px, py, pz = ps[pp, POINT], ps[pp, POINT + 1], ps[pp, POINT + 2]
+            lox, loy, loz = ps[pp, SAVED_BOX], ps[pp, SAVED_BOX + 1], ps[pp, SAVED_BOX + 2]
+            hix, hiy, hiz = ps[pp, SAVED_BOX + 3], ps[pp, SAVED_BOX + 4], ps[pp, SAVED_BOX + 5]
             rad = half_diagonal(lox, loy, loz, hix, hiy, hiz)
             pp -= 1
             i += 1
         elif kind == K_PAINT:
             i += 1
         else:  # K_ZERO
-            vs[sp, 0] = vs[sp, BOUND] = vs[sp, BELOW] = vs[sp, ABOVE] = 0.0
+            vs[sp, FIELD] = vs[sp, BOUND] = vs[sp, BELOW] = vs[sp, ABOVE] = 0.0
             sp += 1
             i += 1
     below, above = safe_distances(vs, 0)
-    return vs[0, 0], vs[0, BOUND], below, above
+    return vs[0, FIELD], vs[0, BOUND], below, above
 
 
 @kernel(inline="always")
@@ -532,7 +556,7 @@ def bounds_use_values(code):
     then the bound pass that evaluates the field (:func:`_bounded`) is worth its extra work; a
     program of blends gains nothing from it."""
     n = code.shape[0]
-    return n > 0 and VALUE_BOUND[code[n - 1, 0]]
+    return n > 0 and VALUE_BOUND[code[n - 1, OP]]
 
 
 @kernel(inline="always")
@@ -546,7 +570,7 @@ def _bound_at(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, x, y
     if values:
         return _bounded(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, x, y, z,
                         dx, dy, dz, length, vs, ps)
-    f = eval_point(code, params, boxes, x, y, z, 0, vs, ps)
+    f = eval_point(code, params, boxes, x, y, z, VALUE, vs, ps)
     bound, rise = _lipschitz(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz, ray, x, y,
                              z, dx, dy, dz, length, spread, vs)
     below, above = gaps(f, bound)
@@ -593,19 +617,19 @@ def eval_range(start, stop, code, params, boxes, P, mode, depth, out_f, out_g, o
         if nan_point(P[m, 0], P[m, 1], P[m, 2]):
             out_f[m] = np.nan
             for r in range(3):
-                if mode > 0:
+                if mode >= GRADIENT:
                     out_g[m, r] = np.nan
-                if mode > 1:
+                if mode >= SHADE:
                     out_c[m, r] = DEFAULT_GREY
             continue
-        if mode == 0:
-            out_f[m] = eval_point(code, params, boxes, P[m, 0], P[m, 1], P[m, 2], 0, vs, ps)
+        if mode == VALUE:
+            out_f[m] = eval_point(code, params, boxes, P[m, 0], P[m, 1], P[m, 2], VALUE, vs, ps)
             continue
-        out_f[m] = eval_point(code, params, boxes, P[m, 0], P[m, 1], P[m, 2], 2, vs, ps)
-        if mode > 0:
-            out_g[m, 0], out_g[m, 1], out_g[m, 2] = vs[0, 1], vs[0, 2], vs[0, 3]
-        if mode > 1:
-            out_c[m, 0], out_c[m, 1], out_c[m, 2] = vs[0, 4], vs[0, 5], vs[0, 6]
+        out_f[m] = eval_point(code, params, boxes, P[m, 0], P[m, 1], P[m, 2], SHADE, vs, ps)
+        if mode >= GRADIENT:
+            out_g[m, 0], out_g[m, 1], out_g[m, 2] = vs[0, GRAD], vs[0, GRAD + 1], vs[0, GRAD + 2]
+        if mode >= SHADE:
+            out_c[m, 0], out_c[m, 1], out_c[m, 2] = vs[0, COLOR], vs[0, COLOR + 1], vs[0, COLOR + 2]
 
 
 @kernel(nrt=True, nogil=True)

@@ -29,6 +29,7 @@ import numpy as np
 from .. import geometry as geo
 from ..fields import FALLOFFS
 from ..nodes.kinds import Operator, Paint, Primitive
+from ..nodes.layout import ARG, GRADIENT, OP, SHADE, SKIP, VALUE
 from ..nodes.node import ISO, REGISTRY, Node
 from ..nodes.warp import Warp
 from ..runtime.threads import parallel_for
@@ -96,10 +97,10 @@ class Program:
         P = np.ascontiguousarray(P, dtype=np.float64)
         n = len(P)
         f = np.empty(n)
-        g = np.empty((n, 3)) if mode > 0 else np.empty((0, 3))
-        c = np.empty((n, 3)) if mode > 0 else np.empty((0, 3))  # (mode 1: colours cost nothing)
+        g = np.empty((n, 3)) if mode >= GRADIENT else np.empty((0, 3))
+        c = np.empty((n, 3)) if mode >= GRADIENT else np.empty((0, 3))  # (colours cost nothing)
         grid = self.grid if n >= GRID_MIN_POINTS else None
-        if grid is not None and mode == 0:
+        if grid is not None and mode == VALUE:
             B.eval_sorted(grid, self.params, self.depth, P, f)
         elif grid is not None:
             B.eval_sorted(grid, self.params, self.depth, P, f, g, c)
@@ -115,7 +116,7 @@ class Program:
         lo, hi = self.bounds
         if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)) and np.all(hi > lo)):
             return None
-        nprim = int(np.sum(KIND[self.code[:, 0]] == K_PRIMITIVE))
+        nprim = int(np.sum(KIND[self.code[:, OP]] == K_PRIMITIVE))
         cells = int(np.clip(GRID_CELLS_PER_PRIMITIVE * nprim, GRID_MIN_CELLS, GRID_MAX_CELLS))
         while True:
             ext = hi - lo
@@ -164,19 +165,19 @@ class Program:
 
     def field(self, P: np.ndarray) -> np.ndarray:
         """Field values (N,) at (N, 3) points."""
-        return self._run(P, 0)[0]
+        return self._run(P, VALUE)[0]
 
     def gradient(self, P: np.ndarray) -> np.ndarray:
         """Analytic gradients (N, 3)."""
-        return self._run(P, 1)[1]
+        return self._run(P, GRADIENT)[1]
 
     def albedo(self, P: np.ndarray) -> np.ndarray:
         """Colours (N, 3) in [0, 1]."""
-        return self._run(P, 2)[2]
+        return self._run(P, SHADE)[2]
 
     def evaluate(self, P: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(field, gradient, colour) in one pass."""
-        return self._run(P, 2)
+        return self._run(P, SHADE)
 
     def lipschitz(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
         """Per box (M, 3) corners: a bound on ``|grad f|`` valid over the whole box."""
@@ -237,7 +238,7 @@ class _Emitter:
 
     def close(self, i: int, box: geo.Box) -> None:
         """Set instruction i's skip target to the next instruction, and its box."""
-        self.code[i][2] = len(self.code)
+        self.code[i][SKIP] = len(self.code)
         self.boxes[i] = _box6(box)
 
     def image_offset(self, node: Node) -> int:
@@ -347,10 +348,10 @@ class _Emitter:
         w = self.add(opcode(node), [*node.canonical.reshape(-1), *node.pack()], node.own_box,
                      lip=node.stretch)
         self.emit(node.child, geo.IDENTITY, look)
-        self.code[w][2] = len(self.code)  # a miss jumps to POPPT
+        self.code[w][SKIP] = len(self.code)  # a miss jumps to POPPT
         # POPPT's lip: the factor from the warp's child frame to the outer frame
         self.add(OP_POPPT, lip=node.stretch * norm)
-        self.code[push][2] = len(self.code)
+        self.code[push][SKIP] = len(self.code)
         return box
 
     def program(self, root: Node) -> Program:
@@ -375,7 +376,7 @@ def _stack_depth(code: np.ndarray) -> int:
     """Deepest value or point stack a run can reach (+1 spare row)."""
     if len(code) == 0:
         return 2
-    op, count = code[:, 0], code[:, 3]
+    op, count = code[:, OP], code[:, ARG]
     kinds = KIND[op]
     operator = kinds == K_OPERATOR
     push = (kinds == K_PRIMITIVE) | (kinds == K_ZERO)

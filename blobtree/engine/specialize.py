@@ -24,6 +24,7 @@ from functools import cached_property
 
 import numpy as np
 
+from ..nodes.layout import ARG, OFFSET, OP, SKIP
 from ..runtime.jit import kernel
 from ..runtime.threads import parallel_for
 from .dispatch import (
@@ -61,20 +62,20 @@ def _frame_misses(code, params, boxes, lips, i, lo, hi):
     its child's box in their own axes (a long bent spine's box hides most of what its outer
     box holds).  The region must be bounded."""
     # (``boxes`` stands in for carry's point stack: a region carried through a warp maps one
-    # point in mode 0, which reads no stack and writes none)
+    # point in mode VALUE, which reads no stack and writes none)
     lox, loy, loz, hix, hiy, hiz, rad = carry(
-        K_PUSHPT, code[i, 0], params, code[i, 1], lips[i], lo[0], lo[1], lo[2], hi[0], hi[1],
+        K_PUSHPT, code[i, OP], params, code[i, OFFSET], lips[i], lo[0], lo[1], lo[2], hi[0], hi[1],
         hi[2], half_diagonal(lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]), boxes)
     w = i + 1
     if misses(boxes, w, lox, loy, loz, hix, hiy, hiz):
         return True
-    if kind_of(code[w, 0]) != K_WARP:
+    if kind_of(code[w, OP]) != K_WARP:
         return False
-    lox, loy, loz, hix, hiy, hiz, rad = carry(K_WARP, code[w, 0], params, code[w, 1], lips[w],
+    lox, loy, loz, hix, hiy, hiz, rad = carry(K_WARP, code[w, OP], params, code[w, OFFSET], lips[w],
                                               lox, loy, loz, hix, hiy, hiz, rad, boxes)
     if misses(boxes, w + 1, lox, loy, loz, hix, hiy, hiz):
         return True
-    return kind_of(code[w + 1, 0]) == K_PRIMITIVE and support_misses(
+    return kind_of(code[w + 1, OP]) == K_PRIMITIVE and support_misses(
         code, params, lips, w + 1, lox, loy, loz, hix, hiy, hiz, rad)
 
 
@@ -100,10 +101,10 @@ def _copy(code, boxes, lips, i, oc, ob, ol, n):
 
 @kernel
 def _zero(oc, ob, ol, n):
-    oc[n, 0] = OP_ZERO
-    oc[n, 1] = 0
-    oc[n, 2] = n + 1
-    oc[n, 3] = 0
+    oc[n, OP] = OP_ZERO
+    oc[n, OFFSET] = 0
+    oc[n, SKIP] = n + 1
+    oc[n, ARG] = 0
     for c in range(6):
         ob[n, c] = 0.0
     ol[n] = 0.0
@@ -150,7 +151,7 @@ def specialize(code, params, boxes, lips, lo, hi, oc, ob, ol, work):
         have = False  # a finished subtree with result z to report to its parent
         if top >= 0 and i == f_end[top] - 1:
             closing = i
-            cop = code[closing, 0]
+            cop = code[closing, OP]
             if f_dead[top] == 1 or f_kept[top] == 0:
                 n = f_start[top]
                 if f_drop[top] == 0:
@@ -160,7 +161,7 @@ def specialize(code, params, boxes, lips, lo, hi, oc, ob, ol, work):
                 if kind_of(cop) != K_OPERATOR or f_kept[top] > 1:
                     n = _copy(code, boxes, lips, closing, oc, ob, ol, n)
                     if kind_of(cop) == K_OPERATOR:
-                        oc[n - 1, 3] = f_kept[top]
+                        oc[n - 1, ARG] = f_kept[top]
                 if f_head[top] >= 0:
                     oc[f_head[top], 2] = n
             i = f_end[top]
@@ -170,8 +171,8 @@ def specialize(code, params, boxes, lips, lo, hi, oc, ob, ol, work):
             break
         else:
             # does the open operator keep a zero child in place (else it drops it, or dies)?
-            drop = top >= 0 and _rule(code[f_end[top] - 1, 0], f_first[top]) != KEEP
-            op = code[i, 0]
+            drop = top >= 0 and _rule(code[f_end[top] - 1, OP], f_first[top]) != KEEP
+            op = code[i, OP]
             if kind_of(op) == K_PRIMITIVE or kind_of(op) == K_ZERO:
                 if kind_of(op) == K_ZERO or _misses(boxes, i, lo, hi) or (
                         tight and support_misses(code, params, lips, i, lo[0], lo[1], lo[2],
@@ -188,18 +189,18 @@ def specialize(code, params, boxes, lips, lo, hi, oc, ob, ol, work):
                 z = True
                 if not drop:
                     n = _zero(oc, ob, ol, n)
-                i = code[i, 2]
+                i = code[i, SKIP]
                 have = True
             elif kind_of(op) == K_PUSHPT:  # inside a warp the frame differs: copy verbatim
                 shift = n - i
-                for j in range(i, code[i, 2]):
+                for j in range(i, code[i, SKIP]):
                     n = _copy(code, boxes, lips, j, oc, ob, ol, n)
-                    oc[n - 1, 2] = code[j, 2] + shift
-                i = code[i, 2]
+                    oc[n - 1, SKIP] = code[j, SKIP] + shift
+                i = code[i, SKIP]
                 have = True
             else:  # a BOX head opens a subtree
                 top += 1
-                f_end[top] = code[i, 2]
+                f_end[top] = code[i, SKIP]
                 f_start[top] = n
                 f_head[top] = -1
                 if not _contains(boxes, i, lo, hi):
@@ -211,7 +212,7 @@ def specialize(code, params, boxes, lips, lo, hi, oc, ob, ol, work):
                 f_drop[top] = drop
                 i += 1
         if have and top >= 0:
-            rule = _rule(code[f_end[top] - 1, 0], f_first[top])
+            rule = _rule(code[f_end[top] - 1, OP], f_first[top])
             if z and rule == KILL:
                 f_dead[top] = 1
             if not z or rule == KEEP:
@@ -254,7 +255,7 @@ class Grid(Regions):
         """1 for each cell whose program is more than a lone ZERO (its field may be non-zero),
         else 0: ``batch.eval_sorted`` answers the points of dead cells without evaluating."""
         lone = self.start[1:] - self.start[:-1] == 1
-        return (~lone | (self.code[self.start[:-1], 0] != OP_ZERO)).astype(np.uint8)
+        return (~lone | (self.code[self.start[:-1], OP] != OP_ZERO)).astype(np.uint8)
 
 
 def cell_boxes(lo, size, dims, pad) -> tuple[np.ndarray, np.ndarray]:

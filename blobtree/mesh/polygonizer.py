@@ -55,7 +55,7 @@ from .export import Mesh
 #: what the arguments may be
 RESOLUTION, CELL_SIZE, VEC3 = Integer(2, 2**20), positive(), Vec3()
 #: cells per side of the blocks of lattice storage
-BLOCK = 16
+LATTICE_BLOCK = 16
 #: cells per side of the smallest boxes culled
 FINE = 2
 #: cells per side of the smallest boxes given a Lipschitz bound of their own; smaller boxes
@@ -66,8 +66,8 @@ BOUND_MIN = 8
 #: lattice points gathered and sampled at a time, at most (about 40 bytes each while sampled)
 SAMPLE_CHUNK = 1 << 20
 #: regula falsi steps per vertex at most (a Newton step on the shading evaluation follows); a
-#: vertex stops early once the secant puts its root within REFINE_TOL of the edge's length
-REFINE_STEPS, REFINE_TOL = 2, 1e-2
+#: vertex stops early once the secant puts its root within VERTEX_TOL of the edge's length
+REFINE_STEPS, VERTEX_TOL = 2, 1e-2
 #: peak memory per output triangle and per finest culled box (fitted to the whorl and the Murex
 #: at 512 and 1024 cells: 156 and 83 bytes)
 BYTES_PER_TRIANGLE, BYTES_PER_BOX = 160, 90
@@ -192,8 +192,8 @@ class _Grid:
         self.origin = lo - h
         cells = np.ceil((hi - lo) / h).astype(np.int64) + 2
         # lattice points per axis, rounded up to whole blocks
-        self.blocks = -(-cells // BLOCK)
-        self.dims = self.blocks * BLOCK + 1
+        self.blocks = -(-cells // LATTICE_BLOCK)
+        self.dims = self.blocks * LATTICE_BLOCK + 1
         if float(np.prod(self.dims.astype(np.float64))) * 3 >= 2.0**62:
             raise ValueError(f"cell size {h!r} gives a lattice too large to index")
 
@@ -221,14 +221,14 @@ class _Grid:
 
 
 def _cull(prog, grid: _Grid, budget: int):
-    """Octree descent from blocks of ``BLOCK << levels`` cells down to ``FINE`` cells.
+    """Octree descent from blocks of ``LATTICE_BLOCK << levels`` cells down to ``FINE`` cells.
 
     Returns the lattice origins (K, 3) of the finest boxes the surface may cross and the field
     at their centres (K,) (lattice points).
     """
     levels = max(0, math.ceil(math.log2(max(1, int(grid.blocks.max())) / 4)))
-    size = BLOCK << levels  # cells per side of the top-level blocks
-    top = -(-grid.blocks * BLOCK // size)
+    size = LATTICE_BLOCK << levels  # cells per side of the top-level blocks
+    top = -(-grid.blocks * LATTICE_BLOCK // size)
     origins = np.stack(np.meshgrid(*(np.arange(n) * size for n in top), indexing="ij"), -1)
     origins = origins.reshape(-1, 3)
     limit = grid.dims - 1
@@ -294,11 +294,12 @@ def _check_budget(triangles: float, boxes: int, h: float, budget: int,
 
 def _sample(prog, grid: _Grid, culled):
     """From the culled boxes (the finest kept boxes' lattice origins and centre values, as
-    :func:`_cull` returns them): lattice values (B, BLOCK+1, BLOCK+1, BLOCK+1) of the blocks
-    holding kept boxes, the blocks' origins (B, 3), and the boxes whose cells to contour:
-    local coordinates (A, 3), those of block q at ``box_start[q]:box_start[q + 1]``, and the
-    program specialised to each block, then to everywhere (:func:`_block_regions`; returned as
-    ``values, origins, box_start, boxes, regions``).
+    :func:`_cull` returns them): lattice values (B, LATTICE_BLOCK+1, LATTICE_BLOCK+1,
+    LATTICE_BLOCK+1) of the blocks holding kept boxes, the blocks' origins (B, 3), and the
+    boxes whose cells to contour: local coordinates (A, 3), those of block q at
+    ``box_start[q]:box_start[q + 1]``, and the program specialised to each block, then to
+    everywhere (:func:`_block_regions`; returned as ``values, origins, box_start, boxes,
+    regions``).
 
     1. Every kept box is sampled at its corners and centre (a body-centred lattice of spacing
        ``FINE``: any part of the solid or of its complement that holds a ball of diameter
@@ -313,18 +314,19 @@ def _sample(prog, grid: _Grid, culled):
     """
     kept, kept_value = culled
     nb = grid.blocks
-    block, kept_loc = np.divmod(kept, BLOCK)  # each box's block and its place in it
+    block, kept_loc = np.divmod(kept, LATTICE_BLOCK)  # each box's block and its place in it
     code = grid.block_code(block)
     order = _by_block(code)  # the kept boxes grouped by block (see gather)
     kept_loc, kept_value, code = kept_loc.take(order, axis=0), kept_value[order], code[order]
     present = np.zeros(int(np.prod(nb)), dtype=bool)
     present[code] = True
     codes = np.flatnonzero(present)  # the blocks holding kept boxes, in order
-    block_origins = np.stack(np.unravel_index(codes, tuple(nb)), axis=1) * BLOCK
+    block_origins = np.stack(np.unravel_index(codes, tuple(nb)), axis=1) * LATTICE_BLOCK
     block_of = np.full(tuple(nb), -1, dtype=np.int64)
     block_of.reshape(-1)[codes] = np.arange(len(codes))
     kept_slot = block_of.reshape(-1)[code]
-    values, sampled, boxmap = new_store(len(codes), BLOCK, FINE, kept_slot, kept_loc, kept_value)
+    values, sampled, boxmap = new_store(len(codes), LATTICE_BLOCK, FINE, kept_slot, kept_loc,
+                                        kept_value)
 
     regions = _block_regions(prog, grid, block_origins)
 
@@ -353,7 +355,7 @@ def _sample(prog, grid: _Grid, culled):
             boxmap,
             block_of,
             block_origins,
-            BLOCK,
+            LATTICE_BLOCK,
             FINE,
             ISO,
         )
@@ -370,7 +372,7 @@ def _block_regions(prog, grid: _Grid, block_origins: np.ndarray, anywhere: bool 
     if not hasattr(prog, "field_grouped"):
         return None
     lo = grid.origin + block_origins * grid.h
-    hi = lo + BLOCK * grid.h
+    hi = lo + LATTICE_BLOCK * grid.h
     if anywhere:
         lo = np.concatenate([lo, np.full((1, 3), -np.inf)])
         hi = np.concatenate([hi, np.full((1, 3), np.inf)])
@@ -382,10 +384,10 @@ def _field_by_runs(prog, grid: _Grid, boxes: np.ndarray, points: np.ndarray) -> 
     in one block (the octree visits a block's boxes together) through that block's program."""
     if not hasattr(prog, "field_grouped"):
         return prog.field(points)
-    block = boxes // BLOCK
+    block = boxes // LATTICE_BLOCK
     code = grid.block_code(block)
     starts = np.flatnonzero(np.diff(code, prepend=code[:1] - 1))
-    regions = _block_regions(prog, grid, block.take(starts, axis=0) * BLOCK, anywhere=False)
+    regions = _block_regions(prog, grid, block.take(starts, axis=0) * LATTICE_BLOCK, anywhere=False)
     return prog.field_grouped(regions, points, np.r_[starts, len(code)])
 
 
@@ -409,7 +411,7 @@ def _by_block(code: np.ndarray) -> np.ndarray:
 
 def _refine(prog, grid: _Grid, regions, p0, axis, f0, f1, vertex_start):
     """Regula falsi along each vertex's lattice edge (:mod:`._place`): up to ``REFINE_STEPS``
-    steps, a vertex leaving once its secant puts the root within ``REFINE_TOL`` of the edge
+    steps, a vertex leaving once its secant puts the root within ``VERTEX_TOL`` of the edge
     (the vertices come by block, as ``vertex_start`` says).
     Returns the root's parameter t in (0, 1), the final bracket (t_lo, t_hi) (kept 1e-4 from
     the ends) and the points (V, 3) at t."""
@@ -426,7 +428,7 @@ def _refine(prog, grid: _Grid, regions, p0, axis, f0, f1, vertex_start):
         parallel_for(secant_points, m, rows, p0, axis, grid.h, ta, tb, ga, gb, t, pts)
         g = _field(prog, grid, regions, pts[:m], np.searchsorted(rows, vertex_start)) - ISO
         done = np.empty(m, dtype=bool)
-        parallel_for(bracket_step, m, rows, g, t, ta, tb, ga, gb, last, REFINE_TOL, done)
+        parallel_for(bracket_step, m, rows, g, t, ta, tb, ga, gb, last, VERTEX_TOL, done)
         rows = rows.compress(~done)
     t_lo, t_hi = np.empty(n), np.empty(n)
     parallel_for(final_roots, n, ta, tb, ga, gb, t, t_lo, t_hi, p0, axis, grid.h, pts)

@@ -17,8 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-#: Field value of the surface.
-ISO = 0.5
+from ..nodes.node import ISO
+
 #: Tangent directions tried for a feature's width.
 DIRECTIONS = 8
 #: A feature narrower than this many times its thickness is a rod (a spine), else a sheet.

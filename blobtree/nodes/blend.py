@@ -5,29 +5,30 @@ from __future__ import annotations
 from ..runtime.jit import kernel
 from .kernels import OperatorKernels
 from .kinds import Operator, operator_function
+from .layout import COLOR, FIELD, GRAD, GRADIENT
 from .node import register
 from .reference import weighted_color
 
 
 @kernel
 def blend_combine(vs, b, k, p, o, mode):
-    f = vs[b, 0]
+    f = vs[b, FIELD]
     for m in range(b + 1, b + k):
-        f += vs[m, 0]
-    if mode > 0:
+        f += vs[m, FIELD]
+    if mode >= GRADIENT:
         g0 = g1 = g2 = 0.0
         c0 = c1 = c2 = 0.0
         for m in range(b, b + k):
-            g0 += vs[m, 1]
-            g1 += vs[m, 2]
-            g2 += vs[m, 3]
-            c0 += vs[m, 0] * vs[m, 4]
-            c1 += vs[m, 0] * vs[m, 5]
-            c2 += vs[m, 0] * vs[m, 6]
-        vs[b, 1], vs[b, 2], vs[b, 3] = g0, g1, g2
+            g0 += vs[m, GRAD]
+            g1 += vs[m, GRAD + 1]
+            g2 += vs[m, GRAD + 2]
+            c0 += vs[m, FIELD] * vs[m, COLOR]
+            c1 += vs[m, FIELD] * vs[m, COLOR + 1]
+            c2 += vs[m, FIELD] * vs[m, COLOR + 2]
+        vs[b, GRAD], vs[b, GRAD + 1], vs[b, GRAD + 2] = g0, g1, g2
         if f > 0.0:
-            vs[b, 4], vs[b, 5], vs[b, 6] = c0 / f, c1 / f, c2 / f
-    vs[b, 0] = f
+            vs[b, COLOR], vs[b, COLOR + 1], vs[b, COLOR + 2] = c0 / f, c1 / f, c2 / f
+    vs[b, FIELD] = f
 
 
 @kernel

@@ -19,7 +19,7 @@ from ..runtime.jit import kernel
 from .kernel_math import power, root
 from .kernels import OperatorKernels
 from .kinds import Operator, operator_function
-from .layout import BOUND
+from .layout import BOUND, COLOR, FIELD, GRAD, GRADIENT
 from .node import register
 from .params import LARGEST_N, Groups, Pairs, Param
 from .reference import pick, weighted_color
@@ -58,7 +58,7 @@ def controlled_combine(vs, b, k, p, o, mode):
     for q in range(npairs):
         j = b + int(p[o + 1 + 2 * q])
         m = b + int(p[o + 2 + 2 * q])
-        f = vs[j, 0] + vs[m, 0]
+        f = vs[j, FIELD] + vs[m, FIELD]
         if f > best_f:
             best_f, bi, bj = f, j, m
     q = o + 1 + 2 * npairs
@@ -72,26 +72,26 @@ def controlled_combine(vs, b, k, p, o, mode):
         q += 2 + size
     for i in range(int(p[q])):
         j = b + int(p[q + 1 + i])
-        if vs[j, 0] > best_f:
-            best_f, bi, bj, best_q = vs[j, 0], j, -1, -1
-    if mode > 0:
+        if vs[j, FIELD] > best_f:
+            best_f, bi, bj, best_q = vs[j, FIELD], j, -1, -1
+    if mode >= GRADIENT:
         if best_q >= 0:
             _group_gradient_colour(vs, b, p, best_q, best_f)
         elif bj < 0:
             for c in range(1, 7):
                 vs[b, c] = vs[bi, c]
         else:
-            vs[b, 1] = vs[bi, 1] + vs[bj, 1]
-            vs[b, 2] = vs[bi, 2] + vs[bj, 2]
-            vs[b, 3] = vs[bi, 3] + vs[bj, 3]
+            vs[b, GRAD] = vs[bi, GRAD] + vs[bj, GRAD]
+            vs[b, GRAD + 1] = vs[bi, GRAD + 1] + vs[bj, GRAD + 1]
+            vs[b, GRAD + 2] = vs[bi, GRAD + 2] + vs[bj, GRAD + 2]
             if best_f > 0.0:
-                wi, wj = vs[bi, 0] / best_f, vs[bj, 0] / best_f
-                for c in range(4, 7):
+                wi, wj = vs[bi, FIELD] / best_f, vs[bj, FIELD] / best_f
+                for c in range(COLOR, COLOR + 3):
                     vs[b, c] = wi * vs[bi, c] + wj * vs[bj, c]
             else:
-                for c in range(4, 7):
+                for c in range(COLOR, COLOR + 3):
                     vs[b, c] = vs[bi, c]
-    vs[b, 0] = best_f
+    vs[b, FIELD] = best_f
 
 
 @kernel
@@ -103,22 +103,22 @@ def _group_gradient_colour(vs, b, p, q, f):
     wsum = 0.0
     for i in range(size):
         j = b + int(p[q + 2 + i])
-        w = 1.0 if n == 1.0 or f <= 0.0 else (vs[j, 0] / f) ** (n - 1.0)
-        g0 += w * vs[j, 1]
-        g1 += w * vs[j, 2]
-        g2 += w * vs[j, 3]
-        cw = vs[j, 0] * w
-        c0 += cw * vs[j, 4]
-        c1 += cw * vs[j, 5]
-        c2 += cw * vs[j, 6]
+        w = 1.0 if n == 1.0 or f <= 0.0 else (vs[j, FIELD] / f) ** (n - 1.0)
+        g0 += w * vs[j, GRAD]
+        g1 += w * vs[j, GRAD + 1]
+        g2 += w * vs[j, GRAD + 2]
+        cw = vs[j, FIELD] * w
+        c0 += cw * vs[j, COLOR]
+        c1 += cw * vs[j, COLOR + 1]
+        c2 += cw * vs[j, COLOR + 2]
         wsum += cw
     if wsum > 0.0:
         c0, c1, c2 = c0 / wsum, c1 / wsum, c2 / wsum
     else:
         j = b + int(p[q + 2])
-        c0, c1, c2 = vs[j, 4], vs[j, 5], vs[j, 6]
-    vs[b, 1], vs[b, 2], vs[b, 3] = g0, g1, g2
-    vs[b, 4], vs[b, 5], vs[b, 6] = c0, c1, c2
+        c0, c1, c2 = vs[j, COLOR], vs[j, COLOR + 1], vs[j, COLOR + 2]
+    vs[b, GRAD], vs[b, GRAD + 1], vs[b, GRAD + 2] = g0, g1, g2
+    vs[b, COLOR], vs[b, COLOR + 1], vs[b, COLOR + 2] = c0, c1, c2
 
 
 @kernel
@@ -129,7 +129,7 @@ def _candidate(vs, b, p, q, size, n, reach, kind):
     low = high = bound = top = 0.0
     for i in range(size):
         j = b + int(p[q + i])
-        lo_j, hi_j = vs[j, 0] - vs[j, BOUND] * reach, vs[j, 0] + vs[j, BOUND] * reach
+        lo_j, hi_j = vs[j, FIELD] - vs[j, BOUND] * reach, vs[j, FIELD] + vs[j, BOUND] * reach
         top = max(top, lo_j)
         low += lo_j
         high += max(hi_j, 0.0)
@@ -140,7 +140,7 @@ def _candidate(vs, b, p, q, size, n, reach, kind):
             bound = 0.0
             for i in range(size):
                 j = b + int(p[q + i])
-                hi_j = max(vs[j, 0] + vs[j, BOUND] * reach, 0.0)
+                hi_j = max(vs[j, FIELD] + vs[j, BOUND] * reach, 0.0)
                 bound += min(1.0, (hi_j / top) ** (n - 1.0)) * vs[j, BOUND]
     return low, high, bound
 

@@ -10,7 +10,7 @@ from ..runtime.jit import kernel
 from . import kernel_math
 from .kernels import OperatorKernels
 from .kinds import Operator, operator_function
-from .layout import BOUND
+from .layout import BOUND, COLOR, FIELD, GRAD, GRADIENT
 from .node import ISO, register
 from .params import Param
 
@@ -34,18 +34,18 @@ def difference_combine(vs, b, k, p, o, mode):
     at 1 and does not paint."""
     r = p[o]
     for j in range(b + 1, b + k):
-        y = 1.0 - vs[j, 0]
-        f, wx, wy = rounded_min(vs[b, 0], y, r)
-        if mode > 0:
-            for c in range(1, 4):
+        y = 1.0 - vs[j, FIELD]
+        f, wx, wy = rounded_min(vs[b, FIELD], y, r)
+        if mode >= GRADIENT:
+            for c in range(GRAD, GRAD + 3):
                 vs[b, c] = wx * vs[b, c] - wy * vs[j, c]
-            if y < vs[b, 0] and vs[j, 0] > 0.0:
-                for c in range(4, 7):
+            if y < vs[b, FIELD] and vs[j, FIELD] > 0.0:
+                for c in range(COLOR, COLOR + 3):
                     vs[b, c] = vs[j, c]
-        vs[b, 0] = f
-    if vs[b, 0] < 0.0:  # a subtrahend above 1 (a blend): clamp to 0, as the reference does
-        vs[b, 0] = 0.0
-        vs[b, 1] = vs[b, 2] = vs[b, 3] = 0.0
+        vs[b, FIELD] = f
+    if vs[b, FIELD] < 0.0:  # a subtrahend above 1 (a blend): clamp to 0, as the reference does
+        vs[b, FIELD] = 0.0
+        vs[b, GRAD] = vs[b, GRAD + 1] = vs[b, GRAD + 2] = 0.0
 
 
 @kernel
@@ -56,10 +56,10 @@ def difference_bound(vs, b, k, p, o, reach):
     below replaces it (so does its bound), otherwise the bound is the larger of the two.  The
     result stays below ISO as far as any term does (1 - f_j as far as f_j stays above)."""
     r = p[o]
-    f, bound = vs[b, 0], vs[b, BOUND]
+    f, bound = vs[b, FIELD], vs[b, BOUND]
     below, above = kernel_math.safe_distances(vs, b)
     for j in range(b + 1, b + k):
-        y, bound_y = 1.0 - vs[j, 0], vs[j, BOUND]
+        y, bound_y = 1.0 - vs[j, FIELD], vs[j, BOUND]
         if y - bound_y * reach >= f + bound * reach + r:
             pass
         elif f - bound * reach >= y + bound_y * reach + r:

@@ -39,7 +39,7 @@ from ..runtime.jit import kernel
 from . import kernel_math
 from .kernels import OperatorKernels
 from .kinds import Operator, operator_function
-from .layout import BOUND
+from .layout import BOUND, COLOR, FIELD, GRAD, GRADIENT
 from .node import ISO, Node, register
 from .params import Param
 from .reference import TIE
@@ -71,8 +71,8 @@ def share(low, contact):
 @kernel
 def _direction(vs, j, h, floor):
     """(D / max(|D|, floor), |D|) for the child whose four copies start at value-stack row j."""
-    f = vs[j, 0]
-    dx, dy, dz = (vs[j + 1, 0] - f) / h, (vs[j + 2, 0] - f) / h, (vs[j + 3, 0] - f) / h
+    f = vs[j, FIELD]
+    dx, dy, dz = (vs[j + 1, FIELD] - f) / h, (vs[j + 2, FIELD] - f) / h, (vs[j + 3, FIELD] - f) / h
     g = math.sqrt(dx * dx + dy * dy + dz * dz)
     s = max(g, floor)
     return dx / s, dy / s, dz / s, g
@@ -90,19 +90,21 @@ def _chain(vs, j, h, floor, g, ax, ay, az, bx, by, bz, scale, direct):
         qx, qy, qz = bx / floor, by / floor, bz / floor
     w0 = direct - scale * (qx + qy + qz) / h
     wx, wy, wz = scale * qx / h, scale * qy / h, scale * qz / h
-    gx = w0 * vs[j, 1] + wx * vs[j + 1, 1] + wy * vs[j + 2, 1] + wz * vs[j + 3, 1]
-    gy = w0 * vs[j, 2] + wx * vs[j + 1, 2] + wy * vs[j + 2, 2] + wz * vs[j + 3, 2]
-    gz = w0 * vs[j, 3] + wx * vs[j + 1, 3] + wy * vs[j + 2, 3] + wz * vs[j + 3, 3]
+    gx = w0 * vs[j, GRAD] + wx * vs[j + 1, GRAD] + wy * vs[j + 2, GRAD] + wz * vs[j + 3, GRAD]
+    gy = (w0 * vs[j, GRAD + 1] + wx * vs[j + 1, GRAD + 1] + wy * vs[j + 2, GRAD + 1]
+          + wz * vs[j + 3, GRAD + 1])
+    gz = (w0 * vs[j, GRAD + 2] + wx * vs[j + 1, GRAD + 2] + wy * vs[j + 2, GRAD + 2]
+          + wz * vs[j + 3, GRAD + 2])
     return gx, gy, gz
 
 
 @kernel
 def gradient_combine(vs, b, k, p, o, mode):
     """h = max(f_a, f_b) + (1 - c^2)^power t(min(f_a, f_b)) over rows b .. b + 7 (f_a and its
-    three shifted copies, then f_b's); with mode > 0 the exact gradient (chain rule over the
+    three shifted copies, then f_b's); with mode >= GRADIENT the exact gradient (chain rule over the
     eight values) and the colour, weighted by each child's part of h."""
     h, floor, power = p[o + STEP], p[o + FLOOR], p[o + POWER]
-    fa, fb = vs[b, 0], vs[b + 4, 0]
+    fa, fb = vs[b, FIELD], vs[b + 4, FIELD]
     ax, ay, az, ga = _direction(vs, b, h, floor)
     bx, by, bz, gb = _direction(vs, b + 4, h, floor)
     c = min(max(ax * bx + ay * by + az * bz, -1.0), 1.0)
@@ -111,7 +113,7 @@ def gradient_combine(vs, b, k, p, o, mode):
     top, low = (fa, fb) if a_wins else (fb, fa)
     m, dm = share(low, p[o + CONTACT])
     value = top + w * m
-    if mode > 0:
+    if mode >= GRADIENT:
         scale = -2.0 * power * c * (1.0 - c * c) ** (power - 1.0) * m  # dh/dc
         clamp = w * dm  # dh/d(low)
         da, db = (1.0, clamp) if a_wins else (clamp, 1.0)
@@ -119,11 +121,11 @@ def gradient_combine(vs, b, k, p, o, mode):
         x1, y1, z1 = _chain(vs, b + 4, h, floor, gb, bx, by, bz, ax, ay, az, scale, db)
         wa, wb = (top, w * m) if a_wins else (w * m, top)
         total = wa + wb
-        for col in range(4, 7):
+        for col in range(COLOR, COLOR + 3):
             vs[b, col] = (wa * vs[b, col] + wb * vs[b + 4, col]) / total if total > 0.0 \
                 else vs[b, col]
-        vs[b, 1], vs[b, 2], vs[b, 3] = x0 + x1, y0 + y1, z0 + z1
-    vs[b, 0] = value
+        vs[b, GRAD], vs[b, GRAD + 1], vs[b, GRAD + 2] = x0 + x1, y0 + y1, z0 + z1
+    vs[b, FIELD] = value
 
 
 @kernel
@@ -148,10 +150,10 @@ def gradient_bound(vs, b, k, p, o, reach):
     h, floor = p[o + STEP], p[o + FLOOR]
     la, lb = vs[b, BOUND], vs[b + 4, BOUND]
     contact = p[o + CONTACT]
-    m = share(min(vs[b, 0] + la * reach, vs[b + 4, 0] + lb * reach), contact)[0]
+    m = share(min(vs[b, FIELD] + la * reach, vs[b + 4, FIELD] + lb * reach), contact)[0]
     turn = _angle_slope(vs, b, reach, h, floor) + _angle_slope(vs, b + 4, reach, h, floor)
     bound = (la + lb) / (1.0 - 2.0 * contact) + m * p[o + SLOPE_W] * turn
-    total, slope = vs[b, 0] + vs[b + 4, 0], la + lb
+    total, slope = vs[b, FIELD] + vs[b + 4, FIELD], la + lb
     below = (ISO - total) / slope if total < ISO and slope > 0.0 else 0.0
     above = max(kernel_math.safe_distances(vs, b)[1], kernel_math.safe_distances(vs, b + 4)[1])
     return bound, below, above

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..fields import SLOPE_BY_ID, falloff, falloff_ds, falloff_peak
 from ..runtime.jit import kernel
-from .layout import ABOVE, BELOW, BOUND, FALLOFF, MAP_NORM
+from .layout import ABOVE, BELOW, BOUND, COLOR, FALLOFF, FIELD, GRAD, MAP_NORM
 from .node import ISO
 from .reference import TIE
 
@@ -294,7 +294,7 @@ def select(vs, b, k, largest):
     becomes row b: union and intersection (ties within ``TIE`` keep the first)."""
     best = b
     for j in range(b + 1, b + k):
-        fj, fb = vs[j, 0], vs[best, 0]
+        fj, fb = vs[j, FIELD], vs[best, FIELD]
         if ((fj > fb + TIE or (fb == 0.0 and fj > 0.0)) if largest
                 else (fj < fb - TIE or (fj == 0.0 and fb > 0.0))):
             best = j
@@ -315,7 +315,7 @@ def safe_distances(vs, j):
     """How far from the region's point the field of value-stack row j surely stays below and
     above ISO: the larger of what its operator proved (vs[j, BELOW], vs[j, ABOVE]) and what its
     value and bound give (:func:`gaps`)."""
-    below, above = gaps(vs[j, 0], vs[j, BOUND])
+    below, above = gaps(vs[j, FIELD], vs[j, BOUND])
     return max(below, vs[j, BELOW]), max(above, vs[j, ABOVE])
 
 
@@ -331,16 +331,16 @@ def select_bound(vs, b, k, reach, largest):
     any_below = any_above = 0.0
     for j in range(b, b + k):
         if largest:
-            edge = max(edge, vs[j, 0] - vs[j, BOUND] * reach)
+            edge = max(edge, vs[j, FIELD] - vs[j, BOUND] * reach)
         else:
-            edge = min(edge, vs[j, 0] + vs[j, BOUND] * reach)
+            edge = min(edge, vs[j, FIELD] + vs[j, BOUND] * reach)
         below, above = safe_distances(vs, j)
         all_below, any_below = min(all_below, below), max(any_below, below)
         all_above, any_above = min(all_above, above), max(any_above, above)
     bound = 0.0
     for j in range(b, b + k):
         reach_j = vs[j, BOUND] * reach
-        if (vs[j, 0] + reach_j >= edge) if largest else (vs[j, 0] - reach_j <= edge):
+        if (vs[j, FIELD] + reach_j >= edge) if largest else (vs[j, FIELD] - reach_j <= edge):
             bound = max(bound, vs[j, BOUND])
     if largest:
         return bound, all_below, any_above
@@ -366,8 +366,8 @@ def norm_of(vs, b, e, col, n):
 @kernel
 def copy_entry(vs, src, dst, sign):
     """Value-stack row src into row dst; sign -1 stores 1 - f and the negated gradient."""
-    vs[dst, 0] = vs[src, 0] if sign > 0 else 1.0 - vs[src, 0]
-    for c in range(1, 4):
+    vs[dst, FIELD] = vs[src, FIELD] if sign > 0 else 1.0 - vs[src, FIELD]
+    for c in range(GRAD, GRAD + 3):
         vs[dst, c] = sign * vs[src, c]
-    for c in range(4, 7):
+    for c in range(COLOR, COLOR + 3):
         vs[dst, c] = vs[src, c]

@@ -11,7 +11,7 @@ from ..runtime.jit import kernel
 from .kernel_math import by_squaring, norm_of, power, root
 from .kernels import OperatorKernels
 from .kinds import Operator, operator_function
-from .layout import BOUND
+from .layout import BOUND, COLOR, FIELD, GRAD, GRADIENT
 from .node import register
 from .params import LARGEST_N, Param
 from .reference import weighted_color
@@ -31,31 +31,31 @@ def super_combine(vs, b, k, p, o, mode):
     n, tiny = p[o], p[o + 1]
     m = 0.0
     for j in range(b, b + k):
-        m = max(m, vs[j, 0])
+        m = max(m, vs[j, FIELD])
     if m <= 0.0:
-        vs[b, 0] = 0.0
-        vs[b, 1] = vs[b, 2] = vs[b, 3] = 0.0
+        vs[b, FIELD] = 0.0
+        vs[b, GRAD] = vs[b, GRAD + 1] = vs[b, GRAD + 2] = 0.0
         return
     s = 0.0
     for j in range(b, b + k):
-        s += _power(vs[j, 0] / m, n, tiny)
+        s += _power(vs[j, FIELD] / m, n, tiny)
     f = m * root(s, n)
-    if mode > 0:
+    if mode >= GRADIENT:
         scale = m if s == 1.0 else m * s ** ((1.0 - n) / n)
         g0 = g1 = g2 = 0.0
         c0 = c1 = c2 = 0.0
         for j in range(b, b + k):
-            cw = _power(vs[j, 0] / m, n, tiny)
-            w = cw * scale / vs[j, 0] if cw > 0.0 else 0.0
-            g0 += w * vs[j, 1]
-            g1 += w * vs[j, 2]
-            g2 += w * vs[j, 3]
-            c0 += cw * vs[j, 4]
-            c1 += cw * vs[j, 5]
-            c2 += cw * vs[j, 6]
-        vs[b, 1], vs[b, 2], vs[b, 3] = g0, g1, g2
-        vs[b, 4], vs[b, 5], vs[b, 6] = c0 / s, c1 / s, c2 / s
-    vs[b, 0] = f
+            cw = _power(vs[j, FIELD] / m, n, tiny)
+            w = cw * scale / vs[j, FIELD] if cw > 0.0 else 0.0
+            g0 += w * vs[j, GRAD]
+            g1 += w * vs[j, GRAD + 1]
+            g2 += w * vs[j, GRAD + 2]
+            c0 += cw * vs[j, COLOR]
+            c1 += cw * vs[j, COLOR + 1]
+            c2 += cw * vs[j, COLOR + 2]
+        vs[b, GRAD], vs[b, GRAD + 1], vs[b, GRAD + 2] = g0, g1, g2
+        vs[b, COLOR], vs[b, COLOR + 1], vs[b, COLOR + 2] = c0 / s, c1 / s, c2 / s
+    vs[b, FIELD] = f
 
 
 @kernel
@@ -67,12 +67,12 @@ def super_bound(vs, b, k, p, o, reach):
     n = p[o]
     low = 0.0
     for j in range(b, b + k):
-        low = max(low, vs[j, 0] - vs[j, BOUND] * reach)
+        low = max(low, vs[j, FIELD] - vs[j, BOUND] * reach)
     bound = 0.0
     for j in range(b, b + k):
         w = 1.0
         if low > 0.0:
-            w = min(1.0, (max(vs[j, 0] + vs[j, BOUND] * reach, 0.0) / low) ** (n - 1.0))
+            w = min(1.0, (max(vs[j, FIELD] + vs[j, BOUND] * reach, 0.0) / low) ** (n - 1.0))
         bound += w * vs[j, BOUND]
     return min(bound, norm_of(vs, b, b + k, BOUND, n)), 0.0, 0.0
 

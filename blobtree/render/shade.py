@@ -9,9 +9,10 @@ import numpy as np
 
 from ..checks import Number
 from ..engine import interp
-from ..engine.batch import SUB, eval_rows
+from ..engine.batch import BATCH, eval_rows
 from ..engine.specialize import specialize
 from ..nodes import kernel_math
+from ..nodes.layout import COLOR, FIELD, GRAD, GRADIENT, SHADE
 from ..runtime.jit import kernel
 from .camera import Camera, as_color, as_vec3
 from .trace import LOW, PEAK, RISE, clip_box, trace_packet
@@ -142,7 +143,7 @@ def _occlusions(code, params, boxes, local, llo, lhi, n, rays, O, D, look, surf,
                     which[m] = q
                     pts[0, 0, m], pts[0, 1, m], pts[0, 2, m] = x, y, z
                     m += 1
-            if m == SUB or (q == n * ns and m > 0):
+            if m == BATCH or (q == n * ns and m > 0):
                 eval_rows(prog[0], params, prog[1], 0, prog[0].shape[0], pts, m, vs, tmp)
                 for j in range(m):
                     values[which[j] // ns, which[j] % ns] = vs[0, j]
@@ -168,11 +169,11 @@ def penumbra(code, params, boxes, x, y, z, t, light_tan, vstack, pstack):
     that surface lies about d = (0.5 - f) / ``|grad f|`` away (the field's first-order Taylor
     estimate), and the light's disc, t * light_tan wide there, is seen in full once d exceeds
     it (the penumbra of an area light, estimated from one ray)."""
-    interp.eval_point(code, params, boxes, x, y, z, 1, vstack, pstack)  # value and gradient
-    g = np.sqrt(vstack[0, 1] ** 2 + vstack[0, 2] ** 2 + vstack[0, 3] ** 2)
+    interp.eval_point(code, params, boxes, x, y, z, GRADIENT, vstack, pstack)
+    g = np.sqrt(vstack[0, GRAD] ** 2 + vstack[0, GRAD + 1] ** 2 + vstack[0, GRAD + 2] ** 2)
     if g <= 0.0 or t <= 0.0:
         return 1.0
-    return _smoothstep((0.5 - vstack[0, 0]) / (g * t * light_tan))
+    return _smoothstep((0.5 - vstack[0, FIELD]) / (g * t * light_tan))
 
 
 @kernel(inline="always")
@@ -205,13 +206,13 @@ NX, NY, NZ, AR, AG, AB, CR, CG, CB, SR, SG, SB, SLOPE, OCC = range(14)
 def _surface(vx, vy, vz, surf, k, last, ev):
     """The outward normal, albedo and slope at a surface point seen along view direction v
     (unit, toward the surface), into row k of the surface table ``surf`` (columns :data:`NX`
-    ...), from ``ev``: the field, gradient and colour there (``interp.eval_point``'s mode 2
+    ...), from ``ev``: the field, gradient and colour there (``interp.eval_point``'s mode SHADE
     row); the linear albedo is row ``last``'s (the last hit's, -1: none) where the field gives
     the same colour (within :data:`ALBEDO_SAME`).  The occlusion OCC is 0 until
     :func:`_occlusions` measures it; :func:`_ambient` then lights the row."""
     row = surf[k]
     # The field decreases outward, so the outward normal is -grad f.
-    nx, ny, nz = -ev[1], -ev[2], -ev[3]
+    nx, ny, nz = -ev[GRAD], -ev[GRAD + 1], -ev[GRAD + 2]
     nn = np.sqrt(nx * nx + ny * ny + nz * nz)
     if nn > 0.0:
         nx, ny, nz = nx / nn, ny / nn, nz / nn
@@ -219,7 +220,7 @@ def _surface(vx, vy, vz, surf, k, last, ev):
         nx, ny, nz = -vx, -vy, -vz
     row[NX], row[NY], row[NZ] = nx, ny, nz
     for c in range(3):
-        row[SR + c] = min(max(ev[4 + c], 0.0), 1.0)
+        row[SR + c] = min(max(ev[COLOR + c], 0.0), 1.0)
     prev = surf[max(last, 0)]
     same = last >= 0 and (abs(row[SR] - prev[SR]) <= ALBEDO_SAME
                           and abs(row[SG] - prev[SG]) <= ALBEDO_SAME
@@ -367,7 +368,7 @@ def shade_packet(code, params, boxes, lips, local, llo, lhi, n, lights, lo, hi, 
             if near[0].shape[0] == 0:  # (a long program: the one that found the hit)
                 near = local if rays[INSIDE, k] == 1.0 else (code, boxes, lips)
             interp.eval_point(near[0], params, near[1], O[k, 0] + t * D[k, 0],
-                              O[k, 1] + t * D[k, 1], O[k, 2] + t * D[k, 2], 2, vstack, pstack)
+                              O[k, 1] + t * D[k, 1], O[k, 2] + t * D[k, 2], SHADE, vstack, pstack)
             _surface(D[k, 0], D[k, 1], D[k, 2], surf, k, last, vstack[0])
             last = k
     if look[OCCLUSION] > 0.0:

@@ -16,10 +16,9 @@ from functools import cached_property
 import numpy as np
 
 from ..checks import Integer, Number
-from ..engine.batch import SUB as BATCH
-from ..engine.batch import point_rows, value_rows
-from ..engine.interp import COLUMNS
+from ..engine.batch import BATCH, point_rows, value_rows
 from ..engine.specialize import specialize, specialize_work
+from ..nodes.layout import COLUMNS, POINT_COLUMNS, RESULT_COLUMNS
 from ..runtime.jit import kernel
 from .camera import Camera, as_color
 from .shade import (
@@ -57,10 +56,10 @@ MAX_SAMPLES = 1024
 EPS_SCENE = 1e-6
 #: Shadow-ray start offset along the normal, as a fraction of the scene's diagonal.
 SHADOW_OFFSET = 1e-4
-#: Side in pixels of the cones marched before the rays (see ``_render_blocks``); a SUB cone's rays
-#: are traced together (at most ``batch.SUB`` of them: one batch of the engine).
-BLOCK, SUB = 16, 8
-#: Length of the stretch of a SUB cone (in cone radii) its specialised program covers.
+#: Side in pixels of the cones marched before the rays (see ``_render_blocks``); a PACKET_SIDE
+#: cone's rays are traced together (at most ``batch.BATCH`` of them: one batch of the engine).
+CONE_SIDE, PACKET_SIDE = 16, 8
+#: Length of the stretch of a PACKET_SIDE cone (in cone radii) its specialised program covers.
 LOCAL_SPAN = 32.0
 #: First candidate segment of a ray, as a fraction of its chord through the bounds box.
 DELTA0 = 0.02
@@ -184,9 +183,9 @@ def trace_rect(prog, cam: np.ndarray, lights: np.ndarray, settings: RenderSettin
     t_far = float(np.linalg.norm(np.maximum(np.abs(eye - lo), np.abs(eye - hi))))
     # Blocks and sub-blocks lie on a grid fixed to the image, not to the rectangle, and their
     # cones always cover the whole grid cell: a pixel's result never depends on the tiling.
-    gx0, gy0 = x0 // BLOCK, y0 // BLOCK
-    nbx, nby = (x1 - 1) // BLOCK - gx0 + 1, (y1 - 1) // BLOCK - gy0 + 1
-    scratch = (np.empty((prog.depth, COLUMNS)), np.empty((prog.depth, 30)))
+    gx0, gy0 = x0 // CONE_SIDE, y0 // CONE_SIDE
+    nbx, nby = (x1 - 1) // CONE_SIDE - gx0 + 1, (y1 - 1) // CONE_SIDE - gy0 + 1
+    scratch = (np.empty((prog.depth, COLUMNS)), np.empty((prog.depth, POINT_COLUMNS)))
     # (specialising is never nested: one serves every call; the scratch comes from the
     # kernels' own Python, so that a render loads one kernel, not four: 12-15 ms a command)
     work = specialize_work.py_func(code)
@@ -205,17 +204,17 @@ def _program_buffers(n: int) -> tuple:
 
 
 def _packet_scratch(depth: int, ncode: int, work: np.ndarray) -> tuple:
-    """The scratch of ``_sub_block`` for a cone of n = SUB^2 rays: the pixels' sums (n, 4); the
-    ray table (``shade.T`` ...); the camera rays' origins and directions, the shadow rays'
-    (n, 3 each); the surface table (``shade.NX`` ...); :func:`trace_packet`'s; and room for a
+    """The scratch of ``_sub_block`` for a cone of n = PACKET_SIDE^2 rays: the pixels' sums
+    (n, 4); the ray table (``shade.T`` ...); the camera rays' origins and directions, the shadow
+    rays' (n, 3 each); the surface table (``shade.NX`` ...); :func:`trace_packet`'s; and room for a
     program of up to ``ncode`` instructions specialised to a box, ``specialize``'s ``work`` and
     the box; and the occlusion samples of the hits (``shade._occlusions``: which sample each
     batch lane holds, and their values)."""
-    n = SUB * SUB
+    n = PACKET_SIDE * PACKET_SIDE
     return (np.empty((n, 4)), np.empty((10, n)), np.empty((n, 3)), np.empty((n, 3)),
             np.empty((n, 3)), np.empty((n, 3)), np.empty((n, OCC + 1)),
             np.empty((PACKET_ROWS, n)), np.empty((3, n), dtype=np.int64),
-            point_rows.py_func(depth), value_rows.py_func(depth), np.empty((depth, 7)),
+            point_rows.py_func(depth), value_rows.py_func(depth), np.empty((depth, RESULT_COLUMNS)),
             (*_program_buffers(ncode), work, np.empty(3), np.empty(3)),
             (np.empty(BATCH, dtype=np.int64), np.empty((n, OCCLUSION_SAMPLES))))
 
@@ -360,19 +359,19 @@ def _render_blocks(code, params, boxes, lips, cam, lights, lo, hi, width, height
                    y1, gx0, gy0, nbx, nby, t_near, t_far, out, vstack, pstack, oc, ob, ol,
                    boc, bob, bol, rlo, rhi, work, packet):
     """Pixels [x0, x1) x [y0, y1), on one core without the GIL, on buffers ``trace_rect``
-    allocated: the nbx x nby blocks of BLOCK^2 pixels from block (gx0, gy0), each first marched
-    as one cone, then as cones of SUB^2 pixels (on the program specialised to the block cone's
-    stretch past where it stopped, then on the whole program beyond it); each of those
+    allocated: the nbx x nby blocks of CONE_SIDE^2 pixels from block (gx0, gy0), each first
+    marched as one cone, then as cones of PACKET_SIDE^2 pixels (on the program specialised to the
+    block cone's stretch past where it stopped, then on the whole program beyond it); each of those
     specialises the program to the stretch of its cone just past where it stopped, then traces
     its rays together there (:func:`_sub_block`).  Compiled without reference counting (like
     every kernel on the way from here to the field: numba's atomic counts on the shared program
     arrays cost a quarter of the time with two threads), so nothing here allocates or keeps an
     array."""
     for b in range(nbx * nby):
-        bx0 = (gx0 + b % nbx) * BLOCK
-        by0 = (gy0 + b // nbx) * BLOCK
-        bx1 = min(bx0 + BLOCK, width)
-        by1 = min(by0 + BLOCK, height)
+        bx0 = (gx0 + b % nbx) * CONE_SIDE
+        by0 = (gy0 + b // nbx) * CONE_SIDE
+        bx1 = min(bx0 + CONE_SIDE, width)
+        by1 = min(by0 + CONE_SIDE, height)
         tb, bax, bay, baz, btan = _block_start(code, params, boxes, lips, cam, width, height,
                                                bx0, by0, bx1, by1, t_near, t_far, vstack,
                                                pstack)
@@ -383,10 +382,10 @@ def _render_blocks(code, params, boxes, lips, cam, lights, lo, hi, width, height
             t_blk = min(tb + LOCAL_SPAN * tb * btan, t_far)
             blk = _localize(code, params, boxes, lips, cam, bax, bay, baz, btan,
                             tb / np.sqrt(1.0 + btan * btan), t_blk, boc, bob, bol, rlo, rhi, work)
-        for sy0 in range(by0, by1, SUB):
-            for sx0 in range(bx0, bx1, SUB):
-                sx1 = min(sx0 + SUB, bx1)
-                sy1 = min(sy0 + SUB, by1)
+        for sy0 in range(by0, by1, PACKET_SIDE):
+            for sx0 in range(bx0, bx1, PACKET_SIDE):
+                sx1 = min(sx0 + PACKET_SIDE, bx1)
+                sy1 = min(sy0 + PACKET_SIDE, by1)
                 if sx1 <= x0 or sx0 >= x1 or sy1 <= y0 or sy0 >= y1:
                     continue
                 ts = tb

@@ -29,9 +29,10 @@ import numpy as np
 
 from ..engine import interp
 from ..engine.batch import eval_rows
+from ..nodes.layout import VALUE
+from ..nodes.node import ISO
 from ..runtime.jit import kernel
 
-ISO = 0.5
 #: Growth factor of a cone's candidate segment over its last step (the paper's c).
 GROWTH = 1.5
 #: Growth factor of a ray's candidate segment over the last one (several steps share its bound).
@@ -43,7 +44,7 @@ CONE_STOP = 0.1
 #: Regula-falsi iterations after a bracket is found (the bracket shrinks superlinearly).
 REFINE_ITERS = 24
 #: Refinement stops once the root is located to this fraction of the smallest step.
-REFINE_TOL = 1e-3
+ROOT_TOL = 1e-3
 #: Fewer rays of a packet than this are evaluated one by one, not as a batch (of
 #: ``batch.W`` lanes at least).
 PACKET_MIN = 2
@@ -156,11 +157,11 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
                                                              pstack)
             else:
                 fn = interp.eval_point(code, params, boxes, ox + tn * dx, oy + tn * dy,
-                                       oz + tn * dz, 0, vstack, pstack)
+                                       oz + tn * dz, VALUE, vstack, pstack)
             fn -= ISO
             if fn >= 0.0:
                 t_hit = _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, t, f, tn, fn,
-                                REFINE_TOL * eps, vstack, pstack)
+                                ROOT_TOL * eps, vstack, pstack)
                 return t_hit
             t = tn
             f = fn
@@ -284,7 +285,7 @@ def trace_packet(code, params, boxes, lips, O, D, n, t, t_end, eps, eps_rel, del
                  refine, pk, ids, pts, vs, tmp, vstack, pstack):
     """Segment tracing of the rays O[k] + t D[k], k < n (unit directions), together, each over
     [t[k], t_end[k]] (none where t[k] > t_end[k]): out[k] is its first hit, or -1 with t[k] where it
-    stopped (t_end[k] if it got there); the hits are located to ``REFINE_TOL`` of their smallest
+    stopped (t_end[k] if it got there); the hits are located to ``ROOT_TOL`` of their smallest
     step where ``refine`` (all together at the end, :func:`_refine_packet`), else out[k] is a point
     past the hit where the field is at least ISO (a shadow ray needs no more; t[k] of a ray that hit
     is left anywhere before its hit); the field's lowest value, largest rise and where it peaked go
@@ -370,7 +371,7 @@ def trace_packet(code, params, boxes, lips, O, D, n, t, t_end, eps, eps_rel, del
                 tn = pk[TN, k]
                 if fn >= 0.0:  # the root lies in [t[k], tn]
                     out[k], pk[FB, k] = tn, fn
-                    pk[TOL, k] = REFINE_TOL * (eps[k] + eps_rel * t[k])
+                    pk[TOL, k] = ROOT_TOL * (eps[k] + eps_rel * t[k])
                     hits[h] = k
                     h += 1
                     continue
@@ -424,7 +425,7 @@ def march_cone(code, params, boxes, lips, ex, ey, ez, ax, ay, az, tan_a, t, t1, 
                                        vstack)
             below = 0.0
             if lam > 0.0:
-                below = (ISO - interp.eval_point(code, params, boxes, px, py, pz, 0, vstack,
+                below = (ISO - interp.eval_point(code, params, boxes, px, py, pz, VALUE, vstack,
                                                  pstack)) / lam
         step = te - t
         if lam > 0.0:
