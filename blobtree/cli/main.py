@@ -13,8 +13,8 @@ from ..io import SceneError
 from ..mesh import polygonize
 from ..mesh.thickness import measure
 from ..nodes import Node
-from ..output import atomic_path, check_writable
-from . import compile_notice, length_mm, start_command
+from ..output import is_stdout, write_file
+from . import checked_output, compile_notice, length_mm, start_command
 from .figures_cmd import figures
 from .mesh_cmd import mesh
 from .render_cmd import render
@@ -38,6 +38,8 @@ class _Commands(click.Group):
             ctx.exit(130)
         except USER_ERRORS as exc:
             message = str(exc) or type(exc).__name__
+            if isinstance(exc, OSError) and exc.strerror:  # without "[Errno N]"
+                message = exc.strerror + (f": {exc.filename!r}" if exc.filename else "")
             if isinstance(exc, RecursionError):
                 message = "the scene is nested too deeply to read"
             raise click.ClickException(message[:2000]) from None
@@ -123,19 +125,15 @@ def list_models() -> None:
 
 @main.command("spec")
 @click.argument("name", type=click.Choice(sorted(models.SHELLS)))
-@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path),
-              help="Write the spec here (default: print it).")
-def spec(name: str, output: Path | None) -> None:
+@click.option("-o", "--output", default="-", type=click.Path(dir_okay=False, path_type=Path),
+              help="Write the spec here  [default: -, standard output].")
+def spec(name: str, output: Path) -> None:
     """Print a shipped shell's whole spec as TOML, every key explained: a file to edit into a
     new species (then `blobtree render my_shell.toml`)."""
-    text = models.spec.to_toml(models.SHELLS[name])
-    if output is None:
-        click.echo(text, nl=False)
-        return
-    check_writable(output, "--output")
-    with atomic_path(output) as tmp:
-        tmp.write_text(text)
-    click.echo(f"wrote {output}")
+    checked_output(output)
+    write_file(output, models.spec.to_toml(models.SHELLS[name]).encode("utf-8"))
+    if not is_stdout(output):
+        click.echo(f"wrote {output}", err=True)
 
 
 main.add_command(figures)

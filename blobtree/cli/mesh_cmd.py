@@ -10,8 +10,8 @@ import numpy as np
 
 from ..api import polygonize
 from ..mesh.export import ENCODERS, FORMATS, import_trimesh
-from ..output import check_writable
-from . import compile_notice, length_mm
+from ..output import display_name
+from . import checked_output, compile_notice, format_option, length_mm
 from .cluster import cluster, cluster_options
 from .scenes import resolve_scene, scene_view
 
@@ -23,8 +23,9 @@ from .scenes import resolve_scene, scene_view
     "--output",
     required=True,
     type=click.Path(dir_okay=False, path_type=Path),
-    help=f"Mesh file; the format follows the extension ({', '.join(FORMATS)}).",
+    help=f"Mesh file ({', '.join(FORMATS)}), or - for standard output (with --format).",
 )
+@format_option(FORMATS)
 @click.option(
     "-r",
     "--resolution",
@@ -41,18 +42,11 @@ from .scenes import resolve_scene, scene_view
               help="Drop separate pieces enclosing less than this volume (in the output's units "
                    "cubed, mm^3 with --height), and say how many; off by default.")
 @cluster_options
-def mesh(scene: str, output: Path, resolution: int, height: float | None,
+def mesh(scene: str, output: Path, fmt: str | None, resolution: int, height: float | None,
          min_piece: float | None, scheduler: str | None, dask_workers: int | None) -> None:
     """Polygonize SCENE into a watertight triangle mesh with normals and vertex colours."""
-    if output.suffix.lower() not in FORMATS:
-        raise click.BadParameter(
-            f"extension {output.suffix!r} is not one of {', '.join(FORMATS)}", param_hint="-o"
-        )
-    try:
-        check_writable(output, "--output")
-    except ValueError as exc:
-        raise click.BadParameter(str(exc), param_hint="-o") from None
-    if FORMATS[output.suffix.lower()] not in ENCODERS:
+    kind = checked_output(output, FORMATS, fmt)
+    if kind not in ENCODERS:
         import_trimesh()  # now rather than after the work (and Ctrl-C-safe, see import_trimesh)
     tree = resolve_scene(scene)
     start = time.perf_counter()
@@ -69,13 +63,13 @@ def mesh(scene: str, output: Path, resolution: int, height: float | None,
         result, dropped = result.without_small_pieces(min_piece)
         notes.append(f"dropped {dropped} piece{'s' if dropped != 1 else ''} under "
                      f"{min_piece:g}")
-    result.save(output)
+    result.save(output, kind)
     seconds = time.perf_counter() - start
     solids, bubbles = result.solids_and_bubbles()
     plural = "s" if bubbles != 1 else ""
     sealed = f" (and {bubbles} bubble{plural} sealed inside)" if bubbles else ""
     click.echo(
-        f"{output}: {len(result.faces)} triangles, {seconds:.2f} s, "
+        f"{display_name(output)}: {len(result.faces)} triangles, {seconds:.2f} s, "
         f"watertight: {'yes' if result.is_watertight else 'no'}, "
-        f"solids: {solids}{sealed}" + "".join(f", {n}" for n in notes)
+        f"solids: {solids}{sealed}" + "".join(f", {n}" for n in notes), err=True
     )

@@ -13,13 +13,13 @@ from pathlib import Path
 import numpy as np
 
 from ..checks import Number, positive
-from ..output import atomic_path
+from ..output import file_format, write_file
 from ..runtime.jit import cached
 from ..runtime.threads import parallel_for
 
-#: file extension -> format; PLY and STL are encoded here (``ENCODERS``), the others by trimesh
-#: (3MF's unit is the millimetre)
-FORMATS = {".ply": "ply", ".obj": "obj", ".stl": "stl", ".glb": "glb", ".3mf": "3mf"}
+#: The mesh formats, each named as its extension without the dot; PLY and STL are encoded here
+#: (``ENCODERS``), the others by trimesh (3MF's unit is the millimetre)
+FORMATS = {name: name for name in ("ply", "obj", "stl", "glb", "3mf")}
 
 
 def import_trimesh():
@@ -278,25 +278,18 @@ class Mesh:
             process=False,
         )
 
-    def save(self, path: str | os.PathLike) -> Path:
+    def save(self, path: str | os.PathLike, format: str | None = None) -> Path:
         """Write PLY (binary, with colours and normals), OBJ, STL, GLB or 3MF (coordinates in
-        millimetres), chosen by extension.
+        millimetres): ``format`` (a name of ``FORMATS``) or else the extension's.
 
-        The file is written whole or not at all: a temporary file beside it is renamed over it.
+        Written as :func:`blobtree.output.write_file` writes: ``-`` is standard output (and needs
+        ``format``), a regular file is written whole or not at all.
         """
         path = Path(path)
-        kind = FORMATS.get(path.suffix.lower())
-        if kind is None:
-            raise ValueError(
-                f"path {str(path)!r} has extension {path.suffix!r}; allowed: {', '.join(FORMATS)}"
-            )
+        kind = file_format(path, FORMATS, format)
         if len(self.faces) == 0:
             raise ValueError("the mesh has no triangles (the surface is absent or smaller than a "
                              "cell: try a finer resolution); nothing written")
         encode = ENCODERS.get(kind)
         data = encode(self) if encode else self.to_trimesh().export(file_type=kind)
-        if isinstance(data, str):
-            data = data.encode()
-        with atomic_path(path) as tmp:
-            tmp.write_bytes(data)
-        return path
+        return write_file(path, data.encode() if isinstance(data, str) else data)

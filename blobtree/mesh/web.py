@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..output import atomic_path
+from ..output import write_file
 from ..render.camera import frame_points
 from .export import Mesh, import_trimesh
 
@@ -99,7 +99,8 @@ def page(mesh: Mesh, up: tuple[float, float, float] = (0.0, 1.0, 0.0),
     fwd, right, cam_up = cam.basis()
     pose = np.eye(4)
     pose[:3, 0], pose[:3, 1], pose[:3, 2], pose[:3, 3] = right, cam_up, -fwd, cam.eye
-    scene.camera.fov = (35.0 * ASPECT, 35.0)
+    # named: trimesh would draw a random name, and the page would change from run to run
+    scene.camera = trimesh.scene.Camera(name="camera", fov=(35.0 * ASPECT, 35.0))
     scene.camera_transform = pose
     html = scene_to_html(scene)
     # the GLB travels base64-encoded inside the page: give it a matte material
@@ -113,9 +114,6 @@ def page(mesh: Mesh, up: tuple[float, float, float] = (0.0, 1.0, 0.0),
 
 
 def save_page(mesh: Mesh, path: str | os.PathLike, **options) -> Path:
-    """Write :func:`page` to ``path`` (whole or not at all)."""
-    path = Path(path)
-    text = page(mesh, **options)
-    with atomic_path(path) as tmp:
-        Path(tmp).write_text(text, encoding="utf-8")
-    return path
+    """Write :func:`page` to ``path`` as :func:`blobtree.output.write_file` writes (``-``:
+    standard output; a regular file whole or not at all)."""
+    return write_file(path, page(mesh, **options).encode("utf-8"))
