@@ -53,6 +53,14 @@ def floats(n: int):
     return parse
 
 
+def direction(ctx, param, value):
+    """A click callback parsing ``"x,y,z"`` into a non-zero direction (None stays None)."""
+    value = floats(3)(ctx, param, value)
+    if value is not None and not any(value):
+        raise click.BadParameter(f"expected a non-zero direction x,y,z, got {value}")
+    return value
+
+
 #: Millimetres per unit of length accepted by --height.
 UNITS = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4}
 

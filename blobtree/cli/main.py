@@ -18,7 +18,7 @@ from . import checked_output, compile_notice, length_mm, start_command
 from .figures_cmd import figures
 from .mesh_cmd import mesh
 from .render_cmd import render
-from .scenes import BUILTIN, resolve_scene, scene_view
+from .scenes import BUILTIN, resolve_scene, scene_up
 from .view_cmd import view
 
 #: What a user's mistake raises (bad values, unreadable or unwritable files, scene documents too
@@ -91,10 +91,7 @@ def _thin_parts(scene: str, tree: Node, prog, height: float, resolution: int) ->
         mesh = polygonize(prog, resolution=resolution, progress=True)
     if not len(mesh.vertices):
         raise ValueError(f"{scene} has no surface to measure")
-    seen = scene_view(scene, tree)
-    up = np.array((0.0, 1.0, 0.0) if seen is None else seen[0], float)
-    along = mesh.vertices @ (up / np.linalg.norm(up))
-    mm = height / float(along.max() - along.min())  # millimetres per model unit
+    mm = height / mesh.extent(scene_up(scene, tree))  # millimetres per model unit
     cell = float(np.max(mesh.vertices.max(0) - mesh.vertices.min(0))) / resolution
     rng = np.random.default_rng(0)
     pick = rng.choice(len(mesh.vertices), min(THIN_SAMPLES, len(mesh.vertices)), replace=False)

@@ -6,14 +6,17 @@ import time
 from pathlib import Path
 
 import click
-import numpy as np
 
 from ..api import polygonize
 from ..mesh.export import ENCODERS, FORMATS, import_trimesh
 from ..output import display_name
-from . import checked_output, compile_notice, format_option, length_mm
+from . import checked_output, compile_notice, direction, format_option, length_mm
 from .cluster import cluster, cluster_options
-from .scenes import resolve_scene, scene_view
+from .scenes import resolve_scene, scene_up
+
+
+def _vector(v: tuple[float, ...]) -> str:
+    return "(" + ", ".join(f"{x:g}" for x in v) + ")"
 
 
 @click.command()
@@ -35,15 +38,21 @@ from .scenes import resolve_scene, scene_view
     help="Cells across the longest side of the scene's bounds.",
 )
 @click.option("--height", callback=length_mm,
-              help="Scale the mesh so the model is this tall (along its up direction: a "
-                   "built-in model's own, else +y), e.g. 80mm, 8cm, 3in; a bare number is mm.  "
-                   "Coordinates are then millimetres (3MF says so in the file).")
+              help="Scale the mesh so the model is this tall along its up (--up), e.g. 80mm, "
+                   "8cm, 3in; a bare number is mm.  Coordinates are then millimetres (3MF says "
+                   "so in the file), and an STL is a print file too (see --up).")
+@click.option("--up", callback=direction, metavar="X,Y,Z",
+              help="The model's up, in its own frame: --height is measured along it; print files "
+                   "(3MF, and STL with --height) stand it along +Z on z = 0, centred at x = y = 0; "
+                   "GLB turns it to +Y (glTF's up); PLY and OBJ keep the model's frame.  "
+                   "[default: a built-in model's own (a shell's apex up), else 0,1,0]")
 @click.option("--min-piece", type=click.FloatRange(min=0.0, min_open=True),
               help="Drop separate pieces enclosing less than this volume (in the output's units "
                    "cubed, mm^3 with --height), and say how many; off by default.")
 @cluster_options
 def mesh(scene: str, output: Path, fmt: str | None, resolution: int, height: float | None,
-         min_piece: float | None, scheduler: str | None, dask_workers: int | None) -> None:
+         up: tuple[float, float, float] | None, min_piece: float | None, scheduler: str | None,
+         dask_workers: int | None) -> None:
     """Polygonize SCENE into a watertight triangle mesh with normals and vertex colours."""
     kind = checked_output(output, FORMATS, fmt)
     if kind not in ENCODERS:
@@ -53,16 +62,20 @@ def mesh(scene: str, output: Path, fmt: str | None, resolution: int, height: flo
     with cluster(scheduler, dask_workers) as client, compile_notice():
         result = polygonize(tree, resolution=resolution, progress=True, scheduler=client)
     notes = []
+    up = scene_up(scene, tree) if up is None else up
     if height is not None and len(result.faces):
-        seen = scene_view(scene, tree)
-        up = np.array((0.0, 1.0, 0.0) if seen is None else seen[0])
-        along = result.vertices @ (up / np.linalg.norm(up))
-        result = result.scaled(height / float(along.max() - along.min()))
+        result = result.scaled(height / result.extent(up))
         notes.append(f"{height:g} mm tall")
     if min_piece is not None:
         result, dropped = result.without_small_pieces(min_piece)
         notes.append(f"dropped {dropped} piece{'s' if dropped != 1 else ''} under "
                      f"{min_piece:g}")
+    if kind == "3mf" or (kind == "stl" and height is not None):  # a print file
+        result = result.standing(up)
+        notes.append(f"up {_vector(up)} along +Z, on z = 0")
+    elif kind == "glb":
+        result = result.turned(up)
+        notes.append(f"up {_vector(up)} along +Y")
     result.save(output, kind)
     seconds = time.perf_counter() - start
     solids, bubbles = result.solids_and_bubbles()

@@ -11,7 +11,7 @@ from ..api import polygonize
 from ..mesh.export import import_trimesh
 from ..mesh.web import page
 from ..output import display_name, write_file
-from . import checked_output, compile_notice, floats
+from . import checked_output, compile_notice, direction
 from .scenes import resolve_scene, scene_view
 
 
@@ -25,7 +25,7 @@ from .scenes import resolve_scene, scene_view
               show_default=True,
               help="Mesh cells across the scene (128: about 4 MB for the Murex; the page "
                    "grows with the square of it).")
-@click.option("--up", callback=floats(3),
+@click.option("--up", callback=direction,
               help="Direction shown up, x,y,z (default: a built-in model's own, else +y).")
 def view(scene: str, output: Path, resolution: int, up) -> None:
     """Write SCENE as a self-contained 3D page: drag to turn, wheel to zoom, right-drag to pan."""

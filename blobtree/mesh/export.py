@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from ..checks import Number, positive
+from ..geometry import axis_vector, rotation_onto
 from ..output import file_format, write_file
 from ..runtime.jit import cached
 from ..runtime.threads import parallel_for
@@ -20,6 +21,8 @@ from ..runtime.threads import parallel_for
 #: The mesh formats, each named as its extension without the dot; PLY and STL are encoded here
 #: (``ENCODERS``), the others by trimesh (3MF's unit is the millimetre)
 FORMATS = {name: name for name in ("ply", "obj", "stl", "glb", "3mf")}
+#: glTF's up and a printer's (3MF's) up
+Y, Z = np.array([0.0, 1.0, 0.0]), np.array([0.0, 0.0, 1.0])
 
 
 def import_trimesh():
@@ -266,6 +269,30 @@ class Mesh:
         factor = positive().check("factor", factor)
         return Mesh(self.vertices * factor, self.faces, self.normals, self.colors)
 
+    def extent(self, direction=Y) -> float:
+        """How long the mesh is along ``direction`` (a non-zero 3-vector)."""
+        if len(self.vertices) == 0:
+            return 0.0
+        along = self.vertices @ axis_vector(direction, "direction")
+        return float(along.max() - along.min())
+
+    def turned(self, up=Y, to=Y) -> Mesh:
+        """The mesh rotated (by the smallest angle) so that the direction ``up`` points along
+        ``to`` (normals turned too).  ``mesh.turned(up)`` has ``up`` along +y, glTF's up."""
+        rot = rotation_onto(axis_vector(up, "up"), axis_vector(to, "to"))
+        return Mesh(self.vertices @ rot.T, self.faces, self.normals @ rot.T, self.colors)
+
+    def standing(self, up=Y) -> Mesh:
+        """The mesh as a printer takes it: turned so that ``up`` points along +Z, resting on
+        z = 0, the middle of its footprint's box at x = y = 0 (a file does not know the
+        printer's plate; slicers such as PrusaSlicer centre a part on theirs)."""
+        turned = self.turned(up, Z)
+        if len(turned.vertices) == 0:
+            return turned
+        lo, hi = turned.vertices.min(axis=0), turned.vertices.max(axis=0)
+        shift = np.array([-(lo[0] + hi[0]) / 2.0, -(lo[1] + hi[1]) / 2.0, -lo[2]])
+        return Mesh(turned.vertices + shift, self.faces, turned.normals, self.colors)
+
     def to_trimesh(self):
         """The mesh as a ``trimesh.Trimesh`` (vertices kept as they are, not merged)."""
         trimesh = import_trimesh()
@@ -280,7 +307,9 @@ class Mesh:
 
     def save(self, path: str | os.PathLike, format: str | None = None) -> Path:
         """Write PLY (binary, with colours and normals), OBJ, STL, GLB or 3MF (coordinates in
-        millimetres): ``format`` (a name of ``FORMATS``) or else the extension's.
+        millimetres): ``format`` (a name of ``FORMATS``) or else the extension's.  The
+        coordinates are written as they are: :meth:`standing` gives a print's frame (+Z up, on
+        z = 0), :meth:`turned` glTF's (+y up).
 
         Written as :func:`blobtree.output.write_file` writes: ``-`` is standard output (and needs
         ``format``), a regular file is written whole or not at all.
