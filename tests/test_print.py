@@ -93,6 +93,47 @@ def test_small_pieces_are_dropped_only_when_asked_and_counted():
         mesh.without_small_pieces(-1.0)
 
 
+def _hollow(cavity: float = 0.4) -> bt.Node:
+    """A ball 4 across with a cavity ``cavity`` / 2 in radius sealed inside, and a ball 0.4
+    across beside it."""
+    return bt.union(bt.difference(ball(4.0), ball(cavity)), ball(0.8).translate(4.0, 0.0, 0.0))
+
+
+def test_bubbles_alone_can_be_dropped():
+    mesh = bt.polygonize(_hollow(0.8), resolution=96)
+    volumes = np.sort(mesh.piece_volumes())
+    assert len(volumes) == 3 and mesh.solids_and_bubbles() == (2, 1)
+    assert volumes[0] == pytest.approx(-4 / 3 * math.pi * 0.4**3, rel=0.05)  # the cavity
+    kept, dropped = mesh.without_small_pieces(1.0, bubbles_only=True)  # the small ball stays
+    assert dropped == 1 and kept.solids_and_bubbles() == (2, 0) and kept.is_watertight
+    assert manifold(kept).volume() == pytest.approx(volumes[1:].sum(), rel=1e-6)
+
+
+def test_print_files_drop_bubbles_a_nozzle_cannot_print_unless_kept(tmp_path):
+    """At 4 mm tall the cavity is 0.4 mm across (0.034 mm^3, under a 0.4 mm cube): dropped from
+    a 3MF by default, kept with --keep-bubbles and in formats that are not print files."""
+    import trimesh
+
+    scene = tmp_path / "hollow.json"
+    bt.save(_hollow(), scene)
+
+    def mesh(out, *extra):
+        r = CliRunner().invoke(main, ["mesh", str(scene), "-o", str(tmp_path / out), "-r", "96",
+                                      "--height", "4mm", *extra])
+        assert r.exit_code == 0, r.output
+        return r.output, trimesh.load(tmp_path / out, force="mesh", process=False)
+
+    said, printed = mesh("p.3mf")
+    assert "dropped 1 bubble under 0.064 mm^3" in said and "solids: 2," in said
+    assert len(printed.split(only_watertight=False)) == 2
+    for out, extra in (("k.3mf", ["--keep-bubbles"]), ("k.ply", [])):
+        said, kept = mesh(out, *extra)
+        assert "dropped" not in said and "solids: 2 (and 1 bubble sealed inside)" in said
+        assert len(kept.split(only_watertight=False)) == 3
+    said, _ = mesh("big.3mf", "--height", "40mm")  # 4 mm across: a printer keeps it as a void
+    assert "dropped" not in said and "1 bubble sealed inside" in said
+
+
 def _scene(tmp_path):
     tree = bt.union(bt.Cone((0, -1, 0), (0, 2, 0), radius_a=1.0, radius_b=0.6),
                     ball(0.5).translate(3.0, 0.0, 0.0))

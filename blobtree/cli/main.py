@@ -11,6 +11,7 @@ import numpy as np
 from .. import __version__, models
 from ..io import SceneError
 from ..mesh import polygonize
+from ..mesh.export import NOZZLE_MM
 from ..mesh.thickness import measure
 from ..nodes import Node
 from ..output import is_stdout, write_file
@@ -81,8 +82,6 @@ def info(scene: str, height: float | None, resolution: int) -> None:
 
 #: Surface points measured by ``info --height`` (a random sample of the mesh's vertices).
 THIN_SAMPLES = 20_000
-#: The nozzle width the report counts against, in mm.
-NOZZLE_MM = 0.4
 
 
 def _thin_parts(scene: str, tree: Node, prog, height: float, resolution: int) -> None:

@@ -8,7 +8,7 @@ from pathlib import Path
 import click
 
 from ..api import polygonize
-from ..mesh.export import ENCODERS, FORMATS, import_trimesh
+from ..mesh.export import BUBBLE_MM3, ENCODERS, FORMATS, NOZZLE_MM, import_trimesh
 from ..output import display_name
 from . import checked_output, compile_notice, direction, format_option, length_mm
 from .cluster import cluster, cluster_options
@@ -17,6 +17,10 @@ from .scenes import resolve_scene, scene_up
 
 def _vector(v: tuple[float, ...]) -> str:
     return "(" + ", ".join(f"{x:g}" for x in v) + ")"
+
+
+def _count(n: int, thing: str) -> str:
+    return f"{n} {thing}{'s' if n != 1 else ''}"
 
 
 @click.command()
@@ -49,10 +53,14 @@ def _vector(v: tuple[float, ...]) -> str:
 @click.option("--min-piece", type=click.FloatRange(min=0.0, min_open=True),
               help="Drop separate pieces enclosing less than this volume (in the output's units "
                    "cubed, mm^3 with --height), and say how many; off by default.")
+@click.option("--keep-bubbles", is_flag=True,
+              help=f"Keep, in print files, the sealed bubbles smaller than a {NOZZLE_MM:g} mm "
+                   f"nozzle can print (under {BUBBLE_MM3:.3g} mm^3), which are dropped by "
+                   "default: a slicer would see each as a part of its own.")
 @cluster_options
 def mesh(scene: str, output: Path, fmt: str | None, resolution: int, height: float | None,
-         up: tuple[float, float, float] | None, min_piece: float | None, scheduler: str | None,
-         dask_workers: int | None) -> None:
+         up: tuple[float, float, float] | None, min_piece: float | None, keep_bubbles: bool,
+         scheduler: str | None, dask_workers: int | None) -> None:
     """Polygonize SCENE into a watertight triangle mesh with normals and vertex colours."""
     kind = checked_output(output, FORMATS, fmt)
     if kind not in ENCODERS:
@@ -63,14 +71,19 @@ def mesh(scene: str, output: Path, fmt: str | None, resolution: int, height: flo
         result = polygonize(tree, resolution=resolution, progress=True, scheduler=client)
     notes = []
     up = scene_up(scene, tree) if up is None else up
+    printing = kind == "3mf" or (kind == "stl" and height is not None)
     if height is not None and len(result.faces):
         result = result.scaled(height / result.extent(up))
         notes.append(f"{height:g} mm tall")
+    if printing and not keep_bubbles:
+        result, dropped = result.without_small_pieces(BUBBLE_MM3, bubbles_only=True)
+        if dropped:
+            notes.append(f"dropped {_count(dropped, 'bubble')} under {BUBBLE_MM3:.3g} mm^3 "
+                         "(--keep-bubbles keeps them)")
     if min_piece is not None:
         result, dropped = result.without_small_pieces(min_piece)
-        notes.append(f"dropped {dropped} piece{'s' if dropped != 1 else ''} under "
-                     f"{min_piece:g}")
-    if kind == "3mf" or (kind == "stl" and height is not None):  # a print file
+        notes.append(f"dropped {_count(dropped, 'piece')} under {min_piece:g}")
+    if printing:
         result = result.standing(up)
         notes.append(f"up {_vector(up)} along +Z, on z = 0")
     elif kind == "glb":
@@ -79,8 +92,7 @@ def mesh(scene: str, output: Path, fmt: str | None, resolution: int, height: flo
     result.save(output, kind)
     seconds = time.perf_counter() - start
     solids, bubbles = result.solids_and_bubbles()
-    plural = "s" if bubbles != 1 else ""
-    sealed = f" (and {bubbles} bubble{plural} sealed inside)" if bubbles else ""
+    sealed = f" (and {_count(bubbles, 'bubble')} sealed inside)" if bubbles else ""
     click.echo(
         f"{display_name(output)}: {len(result.faces)} triangles, {seconds:.2f} s, "
         f"watertight: {'yes' if result.is_watertight else 'no'}, "

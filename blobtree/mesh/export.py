@@ -21,6 +21,12 @@ from ..runtime.threads import parallel_for
 #: The mesh formats, each named as its extension without the dot; PLY and STL are encoded here
 #: (``ENCODERS``), the others by trimesh (3MF's unit is the millimetre)
 FORMATS = {name: name for name in ("ply", "obj", "stl", "glb", "3mf")}
+#: The nozzle width print reports and print files count against, in millimetres (the common one).
+NOZZLE_MM = 0.4
+#: Print files drop sealed bubbles enclosing less than this, in mm^3: a cube one nozzle width on
+#: a side, a space no extruded line fits into, which the printer fills anyway (and which a slicer
+#: would count as a part of its own).  The shipped shells' bubbles are about 1e-4 mm^3 at 80 mm.
+BUBBLE_MM3 = NOZZLE_MM**3
 #: glTF's up and a printer's (3MF's) up
 Y, Z = np.array([0.0, 1.0, 0.0]), np.array([0.0, 0.0, 1.0])
 
@@ -248,14 +254,19 @@ class Mesh:
                               np.ascontiguousarray(self.faces, dtype=np.int64), pieces,
                               int(pieces.max()) + 1)
 
-    def without_small_pieces(self, min_volume: float) -> tuple[Mesh, int]:
+    def without_small_pieces(self, min_volume: float,
+                             bubbles_only: bool = False) -> tuple[Mesh, int]:
         """The mesh without the pieces enclosing less than ``min_volume`` (in absolute value:
-        debris and bubbles alike), and how many were dropped."""
+        debris and bubbles alike, or only bubbles, the pieces wound inward), and how many were
+        dropped."""
         min_volume = Number(lo=0.0).check("min_volume", min_volume)
         if len(self.faces) == 0:
             return self, 0
         pieces = self._pieces()
-        small = np.abs(self.piece_volumes(pieces)) < min_volume
+        volumes = self.piece_volumes(pieces)
+        small = np.abs(volumes) < min_volume
+        if bubbles_only:
+            small &= volumes < 0.0
         keep = ~small[pieces]
         used = np.unique(self.faces[keep])
         index = np.full(len(self.vertices), -1, dtype=np.int64)
