@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import contextlib
 import gc
+import os
 import sys
 from collections.abc import Callable, Iterator, Mapping
-from pathlib import Path
 from typing import Any
 
 import click
@@ -90,7 +90,7 @@ def format_option(formats: Mapping[str, str]) -> Callable[[Callable[..., Any]], 
         help="The output's format  [default: -o's extension; needed with -o -, standard output].")
 
 
-def checked_output(output: Path, formats: Mapping[str, str] | None = None,
+def checked_output(output: str | os.PathLike, formats: Mapping[str, str] | None = None,
                    fmt: str | None = None) -> str | None:
     """Check ``-o`` before any work: a path that can be written (``-``, standard output, too;
     see :mod:`blobtree.output`) and, with ``formats``, its format (from ``--format`` or else its

@@ -16,10 +16,12 @@ from .scenes import resolve_scene, scene_up
 
 
 def _vector(v: tuple[float, ...]) -> str:
+    """A direction as the summary line shows it: (0, -1, 0)."""
     return "(" + ", ".join(f"{x:g}" for x in v) + ")"
 
 
 def _count(n: int, thing: str) -> str:
+    """"1 bubble", "2 bubbles"."""
     return f"{n} {thing}{'s' if n != 1 else ''}"
 
 
