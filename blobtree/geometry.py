@@ -15,18 +15,19 @@ AXES = {"x": 0, "y": 1, "z": 2}
 Box = tuple[np.ndarray, np.ndarray]
 
 
-def axis_vector(axis: str | Sequence[float]) -> np.ndarray:
-    """Unit vector for "x", "y", "z" or any non-zero finite 3-vector."""
+def axis_vector(axis: str | Sequence[float], name: str = "axis") -> np.ndarray:
+    """Unit vector for "x", "y", "z" or any non-zero finite 3-vector (ValueError naming
+    ``name`` otherwise)."""
     if isinstance(axis, str):
         if axis not in AXES:
-            raise ValueError(f"axis must be 'x', 'y', 'z' or a 3-vector, got {axis!r}")
+            raise ValueError(f"{name} must be 'x', 'y', 'z' or a 3-vector, got {axis!r}")
         v = np.zeros(3)
         v[AXES[axis]] = 1.0
         return v
-    v = Vec3().check("axis", axis)
+    v = Vec3().check(name, axis)
     n = np.linalg.norm(v)
     if n == 0.0:
-        raise ValueError("axis must be a non-zero vector, got (0, 0, 0)")
+        raise ValueError(f"{name} must be a non-zero vector, got (0, 0, 0)")
     return v / n
 
 
@@ -36,6 +37,19 @@ def rotation_matrix(axis: str | Sequence[float], degrees: float) -> np.ndarray:
     t = math.radians(angle().check("degrees", degrees))
     k = np.array([[0.0, -u[2], u[1]], [u[2], 0.0, -u[0]], [-u[1], u[0], 0.0]])
     return np.eye(3) + math.sin(t) * k + (1.0 - math.cos(t)) * (k @ k)
+
+
+def rotation_onto(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The 3x3 rotation taking the unit vector ``a`` onto the unit vector ``b`` by the smallest
+    angle (about a x b; half a turn about an axis across ``a`` when they are opposite)."""
+    c = float(a @ b)
+    if c < -1.0 + 1e-12:
+        across = np.cross(a, np.eye(3)[np.argmin(np.abs(a))])
+        across /= np.linalg.norm(across)
+        return 2.0 * np.outer(across, across) - np.eye(3)
+    v = np.cross(a, b)
+    k = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+    return np.eye(3) + k + k @ k / (1.0 + c)
 
 
 def affine(linear: np.ndarray, offset: np.ndarray | None = None) -> np.ndarray:

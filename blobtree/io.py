@@ -30,7 +30,7 @@ import numpy as np
 from .checks import short_repr
 from .nodes import REGISTRY, Node
 from .nodes.node import arity_words
-from .output import atomic_path
+from .output import write_file
 from .texture.mapping import image_from_text, image_to_text
 
 FORMAT = "blobtree-scene"
@@ -74,12 +74,11 @@ def dumps(tree: Node) -> str:
 
 
 def save(tree: Node, path: str | os.PathLike) -> None:
-    """Write ``tree`` as a JSON scene file, atomically."""
+    """Write ``tree`` as a JSON scene file (``-``: standard output; see
+    :func:`blobtree.output.write_file`)."""
     if not isinstance(tree, Node):
         raise ValueError(f"tree must be a BlobTree node, got {type(tree).__name__}")
-    text = dumps(tree)
-    with atomic_path(path) as tmp:
-        tmp.write_text(text, encoding="utf-8")
+    write_file(path, dumps(tree).encode("utf-8"))
 
 
 class _NonFinite(str):

@@ -11,14 +11,15 @@ import numpy as np
 from .. import __version__, models
 from ..io import SceneError
 from ..mesh import polygonize
+from ..mesh.export import NOZZLE_MM
 from ..mesh.thickness import measure
 from ..nodes import Node
-from ..output import atomic_path, check_writable
-from . import compile_notice, length_mm, start_command
+from ..output import is_stdout, write_file
+from . import checked_output, compile_notice, length_mm, start_command
 from .figures_cmd import figures
 from .mesh_cmd import mesh
 from .render_cmd import render
-from .scenes import BUILTIN, resolve_scene, scene_view
+from .scenes import BUILTIN, resolve_scene, scene_up
 from .view_cmd import view
 
 #: What a user's mistake raises (bad values, unreadable or unwritable files, scene documents too
@@ -38,6 +39,8 @@ class _Commands(click.Group):
             ctx.exit(130)
         except USER_ERRORS as exc:
             message = str(exc) or type(exc).__name__
+            if isinstance(exc, OSError) and exc.strerror:  # without "[Errno N]"
+                message = exc.strerror + (f": {exc.filename!r}" if exc.filename else "")
             if isinstance(exc, RecursionError):
                 message = "the scene is nested too deeply to read"
             raise click.ClickException(message[:2000]) from None
@@ -79,8 +82,6 @@ def info(scene: str, height: float | None, resolution: int) -> None:
 
 #: Surface points measured by ``info --height`` (a random sample of the mesh's vertices).
 THIN_SAMPLES = 20_000
-#: The nozzle width the report counts against, in mm.
-NOZZLE_MM = 0.4
 
 
 def _thin_parts(scene: str, tree: Node, prog, height: float, resolution: int) -> None:
@@ -89,10 +90,7 @@ def _thin_parts(scene: str, tree: Node, prog, height: float, resolution: int) ->
         mesh = polygonize(prog, resolution=resolution, progress=True)
     if not len(mesh.vertices):
         raise ValueError(f"{scene} has no surface to measure")
-    seen = scene_view(scene, tree)
-    up = np.array((0.0, 1.0, 0.0) if seen is None else seen[0], float)
-    along = mesh.vertices @ (up / np.linalg.norm(up))
-    mm = height / float(along.max() - along.min())  # millimetres per model unit
+    mm = height / mesh.extent(scene_up(scene, tree))  # millimetres per model unit
     cell = float(np.max(mesh.vertices.max(0) - mesh.vertices.min(0))) / resolution
     rng = np.random.default_rng(0)
     pick = rng.choice(len(mesh.vertices), min(THIN_SAMPLES, len(mesh.vertices)), replace=False)
@@ -123,19 +121,15 @@ def list_models() -> None:
 
 @main.command("spec")
 @click.argument("name", type=click.Choice(sorted(models.SHELLS)))
-@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path),
-              help="Write the spec here (default: print it).")
-def spec(name: str, output: Path | None) -> None:
+@click.option("-o", "--output", default="-", type=click.Path(dir_okay=False, path_type=Path),
+              help="Write the spec here  [default: -, standard output].")
+def spec(name: str, output: Path) -> None:
     """Print a shipped shell's whole spec as TOML, every key explained: a file to edit into a
     new species (then `blobtree render my_shell.toml`)."""
-    text = models.spec.to_toml(models.SHELLS[name])
-    if output is None:
-        click.echo(text, nl=False)
-        return
-    check_writable(output, "--output")
-    with atomic_path(output) as tmp:
-        tmp.write_text(text)
-    click.echo(f"wrote {output}")
+    checked_output(output)
+    write_file(output, models.spec.to_toml(models.SHELLS[name]).encode("utf-8"))
+    if not is_stdout(output):
+        click.echo(f"wrote {output}", err=True)
 
 
 main.add_command(figures)

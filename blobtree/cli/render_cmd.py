@@ -8,11 +8,12 @@ import time
 import click
 
 from ..api import render as render_image
-from ..output import check_writable
+from ..output import display_name
 from ..render import LOOKS, Camera, save_image, warm_kernels
 from ..render.camera import default_camera
+from ..render.image import IMAGE_FORMATS
 from ..render.tiles import MAX_SIDE
-from . import compile_notice, floats
+from . import checked_output, compile_notice, floats, format_option
 from .cluster import cluster, cluster_options
 from .scenes import resolve_scene, scene_camera
 
@@ -27,18 +28,12 @@ def _size(ctx, param, value):
     return w, h
 
 
-def _output(ctx, param, value):
-    """A click callback refusing, before any work, an output file that could not be written."""
-    try:
-        return check_writable(value, "--output")
-    except ValueError as exc:
-        raise click.BadParameter(str(exc)) from None
-
-
 @click.command("render")
 @click.argument("scene")
-@click.option("-o", "--output", default="render.png", show_default=True, callback=_output,
-              help="Image file (.png, .jpg, .tif, .bmp, .ppm); written whole or not at all.")
+@click.option("-o", "--output", default="render.png", show_default=True,
+              help="Image file (.png, .jpg, .tif, .bmp, .ppm), or - for standard output (with "
+                   "--format).")
+@format_option(IMAGE_FORMATS)
 @click.option("--size", default="800x800", show_default=True, callback=_size,
               help="Image size WIDTHxHEIGHT in pixels.")
 @click.option("--samples", default=1, show_default=True, help="Rays per pixel (anti-aliasing).")
@@ -61,11 +56,12 @@ def _output(ctx, param, value):
               help="Reuse the tiles in --checkpoint left by an interrupted run of this render.")
 @cluster_options
 @click.option("--quiet", is_flag=True, help="No progress bar or timing.")
-def render(scene, output, size, samples, eye, target, up, fov, no_shadows, look, background,
+def render(scene, output, fmt, size, samples, eye, target, up, fov, no_shadows, look, background,
            tile, checkpoint, resume, scheduler, dask_workers, quiet) -> None:
     """Ray-trace SCENE (a built-in model name or a JSON scene file) into an image."""
     width, height = size
     start = time.perf_counter()
+    checked_output(output, IMAGE_FORMATS, fmt)
     if resume and checkpoint is None:
         raise click.BadParameter("--resume needs --checkpoint DIR", param_hint="--resume")
     warm = None
@@ -89,7 +85,7 @@ def render(scene, output, size, samples, eye, target, up, fov, no_shadows, look,
                                    shadows=not no_shadows, background=background, look=look,
                                    tile=tile, progress=not quiet, scheduler=client,
                                    checkpoint=checkpoint, resume=resume)
-        save_image(img, output)
+        save_image(img, output, fmt)
     except KeyboardInterrupt:
         kept = f"; finished tiles kept in {checkpoint} (--resume)" if checkpoint else ""
         click.echo(f"interrupted; nothing written{kept}", err=True)
@@ -98,4 +94,5 @@ def render(scene, output, size, samples, eye, target, up, fov, no_shadows, look,
         if warm is not None:  # not left loading (or compiling) as the interpreter exits
             warm.join()
     if not quiet:
-        click.echo(f"{output}: {width}x{height}, {time.perf_counter() - start:.2f} s", err=True)
+        click.echo(f"{display_name(output)}: {width}x{height}, "
+                   f"{time.perf_counter() - start:.2f} s", err=True)

@@ -36,6 +36,13 @@ def scene_view(name: str, tree: Node) -> tuple[tuple, tuple, float] | None:
     return None if view is None else (up, view, 30.0)
 
 
+def scene_up(name: str, tree: Node) -> tuple[float, float, float]:
+    """The direction a scene is up: its figure's, else the tree's own (``Node.shown``: a shell's
+    apex), else +y."""
+    fig = VIEWS.get(name)
+    return fig.up if fig is not None else tree.display[0]
+
+
 def scene_camera(name: str, tree: Node, prog, width: int, height: int) -> Camera | None:
     """The camera a scene is best seen from (see :func:`scene_view`), framed, or None."""
     seen = scene_view(name, tree)

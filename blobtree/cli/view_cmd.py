@@ -9,9 +9,9 @@ import click
 
 from ..api import polygonize
 from ..mesh.export import import_trimesh
-from ..mesh.web import save_page
-from ..output import check_writable
-from . import compile_notice, floats
+from ..mesh.web import page
+from ..output import display_name, write_file
+from . import checked_output, compile_notice, direction
 from .scenes import resolve_scene, scene_view
 
 
@@ -20,19 +20,16 @@ from .scenes import resolve_scene, scene_view
 @click.option("-o", "--output", default="view.html", show_default=True,
               type=click.Path(dir_okay=False, path_type=Path),
               help="HTML file: the mesh and the viewer in one file; it loads nothing from the "
-                   "network.")
+                   "network.  - writes it to standard output.")
 @click.option("-r", "--resolution", type=click.IntRange(8, 1024), default=128,
               show_default=True,
               help="Mesh cells across the scene (128: about 4 MB for the Murex; the page "
                    "grows with the square of it).")
-@click.option("--up", callback=floats(3),
+@click.option("--up", callback=direction,
               help="Direction shown up, x,y,z (default: a built-in model's own, else +y).")
 def view(scene: str, output: Path, resolution: int, up) -> None:
     """Write SCENE as a self-contained 3D page: drag to turn, wheel to zoom, right-drag to pan."""
-    try:
-        check_writable(output, "--output")
-    except ValueError as exc:
-        raise click.BadParameter(str(exc), param_hint="-o") from None
+    checked_output(output)
     import_trimesh()  # before the work (Ctrl-C-safe, see import_trimesh)
     tree = resolve_scene(scene)
     start = time.perf_counter()
@@ -42,7 +39,7 @@ def view(scene: str, output: Path, resolution: int, up) -> None:
         options["up"] = up
     with compile_notice():
         mesh = polygonize(tree, resolution=resolution, progress=True)
-    save_page(mesh, output, title=f"blobtree: {Path(scene).name}", **options)
-    size = output.stat().st_size / 1e6
-    click.echo(f"{output}: {len(mesh.faces)} triangles, {size:.1f} MB, "
-               f"{time.perf_counter() - start:.2f} s")
+    html = page(mesh, title=f"blobtree: {Path(scene).name}", **options).encode("utf-8")
+    write_file(output, html)
+    click.echo(f"{display_name(output)}: {len(mesh.faces)} triangles, {len(html) / 1e6:.1f} MB, "
+               f"{time.perf_counter() - start:.2f} s", err=True)

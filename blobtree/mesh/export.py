@@ -13,13 +13,22 @@ from pathlib import Path
 import numpy as np
 
 from ..checks import Number, positive
-from ..output import atomic_path
+from ..geometry import axis_vector, rotation_onto
+from ..output import file_format, write_file
 from ..runtime.jit import cached
 from ..runtime.threads import parallel_for
 
-#: file extension -> format; PLY and STL are encoded here (``ENCODERS``), the others by trimesh
-#: (3MF's unit is the millimetre)
-FORMATS = {".ply": "ply", ".obj": "obj", ".stl": "stl", ".glb": "glb", ".3mf": "3mf"}
+#: The mesh formats, each named as its extension without the dot; PLY and STL are encoded here
+#: (``ENCODERS``), the others by trimesh (3MF's unit is the millimetre)
+FORMATS = {name: name for name in ("ply", "obj", "stl", "glb", "3mf")}
+#: The nozzle width print reports and print files count against, in millimetres (the common one).
+NOZZLE_MM = 0.4
+#: Print files drop sealed bubbles enclosing less than this, in mm^3: a cube one nozzle width on
+#: a side, a space no extruded line fits into, which the printer fills anyway (and which a slicer
+#: would count as a part of its own).  The shipped shells' bubbles are about 1e-4 mm^3 at 80 mm.
+BUBBLE_MM3 = NOZZLE_MM**3
+#: glTF's up and a printer's (3MF's) up
+Y, Z = np.array([0.0, 1.0, 0.0]), np.array([0.0, 0.0, 1.0])
 
 
 def import_trimesh():
@@ -245,14 +254,19 @@ class Mesh:
                               np.ascontiguousarray(self.faces, dtype=np.int64), pieces,
                               int(pieces.max()) + 1)
 
-    def without_small_pieces(self, min_volume: float) -> tuple[Mesh, int]:
+    def without_small_pieces(self, min_volume: float,
+                             bubbles_only: bool = False) -> tuple[Mesh, int]:
         """The mesh without the pieces enclosing less than ``min_volume`` (in absolute value:
-        debris and bubbles alike), and how many were dropped."""
+        debris and bubbles alike, or only bubbles, the pieces wound inward), and how many were
+        dropped."""
         min_volume = Number(lo=0.0).check("min_volume", min_volume)
         if len(self.faces) == 0:
             return self, 0
         pieces = self._pieces()
-        small = np.abs(self.piece_volumes(pieces)) < min_volume
+        volumes = self.piece_volumes(pieces)
+        small = np.abs(volumes) < min_volume
+        if bubbles_only:
+            small &= volumes < 0.0
         keep = ~small[pieces]
         used = np.unique(self.faces[keep])
         index = np.full(len(self.vertices), -1, dtype=np.int64)
@@ -266,6 +280,30 @@ class Mesh:
         factor = positive().check("factor", factor)
         return Mesh(self.vertices * factor, self.faces, self.normals, self.colors)
 
+    def extent(self, direction=Y) -> float:
+        """How long the mesh is along ``direction`` (a non-zero 3-vector)."""
+        if len(self.vertices) == 0:
+            return 0.0
+        along = self.vertices @ axis_vector(direction, "direction")
+        return float(along.max() - along.min())
+
+    def turned(self, up=Y, to=Y) -> Mesh:
+        """The mesh rotated (by the smallest angle) so that the direction ``up`` points along
+        ``to`` (normals turned too).  ``mesh.turned(up)`` has ``up`` along +y, glTF's up."""
+        rot = rotation_onto(axis_vector(up, "up"), axis_vector(to, "to"))
+        return Mesh(self.vertices @ rot.T, self.faces, self.normals @ rot.T, self.colors)
+
+    def standing(self, up=Y) -> Mesh:
+        """The mesh as a printer takes it: turned so that ``up`` points along +Z, resting on
+        z = 0, the middle of its footprint's box at x = y = 0 (a file does not know the
+        printer's plate; slicers such as PrusaSlicer centre a part on theirs)."""
+        turned = self.turned(up, Z)
+        if len(turned.vertices) == 0:
+            return turned
+        lo, hi = turned.vertices.min(axis=0), turned.vertices.max(axis=0)
+        shift = np.array([-(lo[0] + hi[0]) / 2.0, -(lo[1] + hi[1]) / 2.0, -lo[2]])
+        return Mesh(turned.vertices + shift, self.faces, turned.normals, self.colors)
+
     def to_trimesh(self):
         """The mesh as a ``trimesh.Trimesh`` (vertices kept as they are, not merged)."""
         trimesh = import_trimesh()
@@ -278,25 +316,20 @@ class Mesh:
             process=False,
         )
 
-    def save(self, path: str | os.PathLike) -> Path:
+    def save(self, path: str | os.PathLike, format: str | None = None) -> Path:
         """Write PLY (binary, with colours and normals), OBJ, STL, GLB or 3MF (coordinates in
-        millimetres), chosen by extension.
+        millimetres): ``format`` (a name of ``FORMATS``) or else the extension's.  The
+        coordinates are written as they are: :meth:`standing` gives a print's frame (+Z up, on
+        z = 0), :meth:`turned` glTF's (+y up).
 
-        The file is written whole or not at all: a temporary file beside it is renamed over it.
+        Written as :func:`blobtree.output.write_file` writes: ``-`` is standard output (and needs
+        ``format``), a regular file is written whole or not at all.
         """
         path = Path(path)
-        kind = FORMATS.get(path.suffix.lower())
-        if kind is None:
-            raise ValueError(
-                f"path {str(path)!r} has extension {path.suffix!r}; allowed: {', '.join(FORMATS)}"
-            )
+        kind = file_format(path, FORMATS, format)
         if len(self.faces) == 0:
             raise ValueError("the mesh has no triangles (the surface is absent or smaller than a "
                              "cell: try a finer resolution); nothing written")
         encode = ENCODERS.get(kind)
         data = encode(self) if encode else self.to_trimesh().export(file_type=kind)
-        if isinstance(data, str):
-            data = data.encode()
-        with atomic_path(path) as tmp:
-            tmp.write_bytes(data)
-        return path
+        return write_file(path, data.encode() if isinstance(data, str) else data)

@@ -18,9 +18,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..output import atomic_path
+from ..geometry import axis_vector, rotation_onto
+from ..output import write_file
 from ..render.camera import frame_points
-from .export import Mesh, import_trimesh
+from .export import Mesh, Y, import_trimesh
 
 #: Default view: a three-quarter view from slightly above.
 VIEW = (-0.6, -0.35, -0.72)
@@ -50,17 +51,6 @@ tracklight.intensity = 0.8;
 </script>"""
 
 
-def _rotation_to_y(up: np.ndarray) -> np.ndarray:
-    """The rotation matrix taking the unit vector ``up`` to +y (the shortest one)."""
-    y = np.array([0.0, 1.0, 0.0])
-    c = float(up @ y)
-    if c < -1.0 + 1e-12:  # opposite: half a turn about z
-        return np.diag([-1.0, -1.0, 1.0])
-    v = np.cross(up, y)
-    k = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
-    return np.eye(3) + k + k @ k / (1.0 + c)
-
-
 def _matte_glb(glb: bytes) -> bytes:
     """The GLB with a matte, non-metallic material on every primitive."""
     (json_len,) = struct.unpack_from("<I", glb, 12)
@@ -87,11 +77,8 @@ def page(mesh: Mesh, up: tuple[float, float, float] = (0.0, 1.0, 0.0),
     trimesh = import_trimesh()
     from trimesh.viewer.notebook import scene_to_html
 
-    u = np.asarray(up, dtype=np.float64)
-    if not (u.shape == (3,) and np.all(np.isfinite(u)) and np.linalg.norm(u) > 0.0):
-        raise ValueError(f"up must be a non-zero finite 3-vector, got {up!r}")
-    rot = _rotation_to_y(u / np.linalg.norm(u))
-    turned = Mesh(mesh.vertices @ rot.T, mesh.faces, mesh.normals @ rot.T, mesh.colors)
+    rot = rotation_onto(axis_vector(up, "up"), Y)
+    turned = mesh.turned(up)
     scene = trimesh.Scene(turned.to_trimesh())
     look = VIEW if view is None else rot @ np.asarray(view, dtype=np.float64)
     cam = frame_points(turned.vertices[:: max(1, len(turned.vertices) // 20000)], ASPECT,
@@ -99,7 +86,8 @@ def page(mesh: Mesh, up: tuple[float, float, float] = (0.0, 1.0, 0.0),
     fwd, right, cam_up = cam.basis()
     pose = np.eye(4)
     pose[:3, 0], pose[:3, 1], pose[:3, 2], pose[:3, 3] = right, cam_up, -fwd, cam.eye
-    scene.camera.fov = (35.0 * ASPECT, 35.0)
+    # named: trimesh would draw a random name, and the page would change from run to run
+    scene.camera = trimesh.scene.Camera(name="camera", fov=(35.0 * ASPECT, 35.0))
     scene.camera_transform = pose
     html = scene_to_html(scene)
     # the GLB travels base64-encoded inside the page: give it a matte material
@@ -113,9 +101,6 @@ def page(mesh: Mesh, up: tuple[float, float, float] = (0.0, 1.0, 0.0),
 
 
 def save_page(mesh: Mesh, path: str | os.PathLike, **options) -> Path:
-    """Write :func:`page` to ``path`` (whole or not at all)."""
-    path = Path(path)
-    text = page(mesh, **options)
-    with atomic_path(path) as tmp:
-        Path(tmp).write_text(text, encoding="utf-8")
-    return path
+    """Write :func:`page` to ``path`` as :func:`blobtree.output.write_file` writes (``-``:
+    standard output; a regular file whole or not at all)."""
+    return write_file(path, page(mesh, **options).encode("utf-8"))

@@ -4,6 +4,7 @@ without redoing them (locally or on a cluster)."""
 from __future__ import annotations
 
 import hashlib
+import io
 import json
 from collections.abc import Sequence
 from pathlib import Path
@@ -11,7 +12,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..output import atomic_path
+from ..output import write_file
 
 if TYPE_CHECKING:
     from .camera import Camera
@@ -85,8 +86,8 @@ class Checkpoint:
     def save(self, rect: Rect, pixels: np.ndarray) -> None:
         """Keep one finished tile (the manifest is written with the first one)."""
         if not self.started:
-            with atomic_path(self.manifest) as tmp:
-                tmp.write_text(json.dumps({"job": self.job, "tile": self.tile}))
+            write_file(self.manifest, json.dumps({"job": self.job, "tile": self.tile}).encode())
             self.started = True
-        with atomic_path(self._path(rect)) as tmp, open(tmp, "wb") as fh:
-            np.save(fh, pixels)
+        buffer = io.BytesIO()
+        np.save(buffer, pixels)
+        write_file(self._path(rect), buffer.getbuffer())
