@@ -136,7 +136,9 @@ class ShellSpec:
     canal_radii: tuple = _spec("canal", "radii", Numbers(2, _SIZE),
                                "field radii of the canal cone at base and tip")
     canal_fuse: bool = _spec("canal", "fuse", Flag(),
-                             "blend every two canal sections, not only neighbours")
+                             "each canal section's canal blends with the later canal "
+                             "sections' canals and points, not only its neighbours' (their "
+                             "points do not: the suture stays Eq. 10's)")
     table_1: tuple = _spec("varices", "table", ListOf(ListOf(_SPINE, 0, 64), 1, 40),
                            "Table 1: per whorl, the (alpha_i deg, delta_i) of each curving "
                            "spine of its varices (Eqs. 11-12)")
