@@ -77,6 +77,8 @@ def test_the_murex_spec_holds_the_paper_numbers():
     ("version = 1\nextends = 'nautilus'\n", "extends must be one of"),
     ("version = 1\nname = 'bare'\n", "spec is missing"),
     ("version = 1\nextends = 'murex'\n[look]\ntexture = 'plaid'\n", "texture"),
+    ("version = 1\nextends = 'murex'\n[opening]\nwall_join = 'glue'\n",
+     "opening.wall_join must be one of ['clipped', 'union'], got 'glue'"),
     ("version = 1\n[canal\n", "not valid TOML"),
 ])
 def test_bad_specs_are_refused_naming_the_key(tmp_path, text, words):

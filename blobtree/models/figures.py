@@ -313,6 +313,15 @@ def grown_spines_figure(seed: int = 0) -> Node:
                 APERTURE_VIEW, SHELL_UP)
 
 
+def walls_figure(seed: int = 0) -> Node:
+    """Eq. 15 two ways, on the Murex in plain colours: the inside wall clipped to the shell
+    (left, ``opening.wall_join = "clipped"``, the shipped spec's) and the paper's union (right,
+    ``"union"``), where the wall, larger than the body (``opening.wall_scale``), shows outside
+    the last whorl and round the lip."""
+    return _row([shell(replace(DEFAULT, wall_join=join), seed, textured=False)
+                 for join in ("clipped", "union")], APERTURE_VIEW, SHELL_UP)
+
+
 def patterns_figure(seed: int = 0) -> np.ndarray:
     """The pigment patterns of ``bt.texture.PATTERNS`` side by side, named."""
     from ..texture.pigment import pattern_sheet  # noqa: PLC0415  (images only for this figure)
@@ -361,6 +370,8 @@ BEYOND: dict[str, Figure | TextureFigure] = {
                                       "Oliva porphyria, each built from its spec."),
     "grown": Figure(grown_spines_figure, "Spines placed by Table 1 (left) and grown by an "
                                          "activator-inhibitor along the lip (right)."),
+    "walls": Figure(walls_figure, "Eq. 15 with the inside wall clipped to the shell (left) "
+                                  "and as the paper's union (right)."),
     "joins": Figure(joins_figure, "Bumps joined to the whorl by the sum (left), the "
                                   "super-elliptic blend n = 400 (centre, the paper) and the "
                                   "gradient-based blend (right).",

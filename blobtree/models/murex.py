@@ -696,16 +696,19 @@ def outer_shell(seed: int = 0, spec: ShellSpec = DEFAULT, textured: bool = True)
 
 def shell(spec: ShellSpec | Mapping | str | Path = "murex", seed: int = 0, inside: bool = True,
           textured: bool = True) -> Node:
-    """A whole shell from its spec (Eq. 15 for the Murex):
-    B = (B_shell - B_opening) U B_inside_wall, computed as B_shell - (B_opening - B_inside_wall).
+    """A whole shell from its spec (Eq. 15 for the Murex), by ``opening.wall_join``:
+    'union', the paper's B = (B_shell - B_opening) U B_inside_wall, or 'clipped' (the shipped
+    specs'), B = B_shell - (B_opening - B_inside_wall).
 
     The two forms are the same solid wherever the wall lies inside B_shell: min(S, max(1 - O,
-    W)) = max(min(S, 1 - O), min(S, W)) by distributivity, and the second form clips the wall to
-    the shell.  The paper's wall lies inside; ours is larger (``opening.wall_scale`` 1.2, ours)
-    so that it fills the crease the extension cones carve where the wall meets the previous
-    whorl.  With the union and a wall that just touched, that crease was sealed inside the
-    shell as 14-48 bubbles (pieces of the mesh); clipped, the larger wall closes it and cannot
-    show outside the shell.
+    W)) = max(min(S, 1 - O), min(S, W)) by distributivity, and the clipped form clips the wall
+    to the shell.  The paper's wall lies inside; ours is larger (``opening.wall_scale`` 1.2,
+    ours) so that it fills the crease the extension cones carve where the wall meets the
+    previous whorl.  With the union and a wall that just touched, that crease was sealed inside
+    the shell as 14-48 bubbles (pieces of the mesh); clipped, the larger wall closes it and
+    cannot show outside the shell.  With the larger wall both forms mesh to one solid at every
+    32 cells from 128 to 512 for every shipped shell, but the union shows the wall outside the
+    last whorl and round the lip (figure ``walls``), so the shipped specs clip it.
 
     The differences are rounded (``Difference.smooth``): the carving of the lip by
     ``opening.lip_smooth``, Eq. 14's cut and the wall's by ``opening.cut_smooth``.  The sharp
@@ -729,9 +732,12 @@ def shell(spec: ShellSpec | Mapping | str | Path = "murex", seed: int = 0, insid
     carved = outer_shell(seed, spec, textured)
     if spec.opening:
         hole = opening(spec).color(inside_c)
-        if inside:
-            hole = difference(hole, inside_wall(spec).color(inside_c), smooth=spec.cut_smooth)
+        wall = inside_wall(spec).color(inside_c) if inside else None
+        if wall is not None and spec.wall_join == "clipped":
+            hole = difference(hole, wall, smooth=spec.cut_smooth)
         carved = difference(carved, hole, smooth=spec.lip_smooth)
+        if wall is not None and spec.wall_join == "union":
+            carved = union(carved, wall)
     return carved.shown(up=spec.up, view=spec.view)
 
 

@@ -214,6 +214,11 @@ class ShellSpec:
                                    "how far past the previous whorl's surface they reach")
     wall_scale: float = _spec("opening", "wall_scale", Number(0.01, 2.0),
                               "inside wall (Eq. 15) point radius / point_radius")
+    wall_join: str = _spec("opening", "wall_join", Choice(("clipped", "union")),
+                           "Eq. 15: 'union': (B_shell - B_opening) U B_inside_wall, the "
+                           "paper's form; 'clipped': B_shell - (B_opening - B_inside_wall), "
+                           "the same solid where the wall lies inside the shell, and no wall "
+                           "outside it")
     lip_smooth: float = _spec("opening", "lip_smooth", Number(0.0, 0.5),
                               "rounding of the carved lip (Eq. 15's difference), in field "
                               "value: 0 = the sharp CSG cut")
