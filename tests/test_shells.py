@@ -14,7 +14,7 @@ from click.testing import CliRunner
 import blobtree as bt
 from blobtree.cli.main import main
 from blobtree.models import SHELLS, load_spec, shell
-from blobtree.models.growth import grown_table
+from blobtree.models.growth import grown_varices
 from blobtree.models.spec import FIELDS, read_toml, spec_from_data, to_toml
 from blobtree.render.camera import framed_camera
 
@@ -165,24 +165,54 @@ def test_varices_run_down_the_canal_when_asked():
 
 # --- grown spines and patterns -------------------------------------------------------------------
 
+#: Table 1's range of deltas (the paper's: whorl 7, 80 and -40 degrees).
+TABLE_1_DELTAS = (0.5, 1.92)
+
+
+def _interior_extrema(deltas) -> tuple[int, int]:
+    """(spines longer or shorter than both neighbours, spines with two neighbours) of a row."""
+    d = np.asarray(deltas)
+    m = d[1:-1]
+    return int(np.sum(((m > d[:-2]) & (m > d[2:])) | ((m < d[:-2]) & (m < d[2:])))), len(m)
+
+
 def test_grown_spines_change_gradually():
-    """The activator-inhibitor's spines: their number never falls from whorl to whorl and rises
-    by at most 3 (Table 1 jumps by 10, from 8 to 18); a spine once placed stays (within 2
-    degrees) on the next whorl; every spine lies on the lip and within Table 1's sizes."""
+    """The activator-inhibitor's spines, one row per varix: their number never falls from
+    varix to varix and rises by at most 3 over a whorl (Table 1 jumps by 10, from 8 to 18); a
+    spine once placed stays (within 2 degrees) on the next varix; every spine lies on the
+    lip."""
     spec = replace(MUREX, varix_placement="grown")
-    table = grown_table(spec)
-    counts = [len(row) for row in table]
-    steps = np.diff(counts)
-    assert counts[0] == 0 and counts[-1] >= 8 and np.all(steps >= 0) and steps.max() <= 3
+    rows = grown_varices(spec)
+    assert len(rows) == 21
+    counts = np.array([len(row) for row in rows])
+    assert counts[:3].sum() == 0 and counts[-1] >= 8 and np.all(np.diff(counts) >= 0)
+    assert np.all(counts[3:] - counts[:-3] <= 3)
     paper_steps = np.diff([len(row) for row in MUREX.table_1])
     assert paper_steps.max() >= 10
-    for before, after in zip(table[1:-1], table[2:], strict=True):
+    for before, after in zip(rows[3:-1], rows[4:], strict=True):
         for alpha, _ in before:
             assert min(abs(alpha - a) for a, _ in after) <= 2.0
-    deltas = [d for row in table for _, d in row]
-    assert min(deltas) >= 0.5 and max(deltas) <= 1.92
-    assert all(-90 <= a <= 90 for row in table for a, _ in row)
-    assert grown_table(replace(spec, name="again")) == table  # deterministic
+    assert all(-90 <= a <= 90 for row in rows for a, _ in row)
+    assert grown_varices(replace(spec, name="again")) == rows  # deterministic
+
+
+def test_grown_spines_alternate_long_and_short():
+    """The second, slower pattern sets the sizes: they stay within Table 1's range and cover at
+    least 70 % of it; the three varices of every whorl with spines differ; and on the last
+    whorl long and short spines alternate as in Table 1, whose whorl 7 has 11 of its 16
+    spines with two neighbours longer or shorter than both: at least 60 % here too, where the
+    placement by one pattern alone gave spines within 1.15-1.25 of each other."""
+    rows = grown_varices(replace(MUREX, varix_placement="grown"))
+    deltas = [d for row in rows for _, d in row]
+    lo, hi = TABLE_1_DELTAS
+    assert lo <= min(deltas) and max(deltas) <= hi
+    assert max(deltas) - min(deltas) >= 0.7 * (hi - lo)
+    for w in range(2, 8):
+        assert len(set(rows[3 * w - 3:3 * w])) == 3, w
+    assert _interior_extrema([d for _, d in MUREX.table_1[6]]) == (11, 16)
+    for row in rows[-3:]:
+        extrema, interior = _interior_extrema([d for _, d in row])
+        assert extrema >= 0.6 * interior
 
 
 def test_a_pattern_changes_only_the_colours():

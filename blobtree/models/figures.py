@@ -304,10 +304,10 @@ def species_figure(seed: int = 0) -> Node:
 
 
 def grown_spines_figure(seed: int = 0) -> Node:
-    """The Murex with its varix spines as Table 1 places them (left) and grown by an
-    activator-inhibitor along the lip (right, ``varices.placement = "grown"``): the number of
-    spines rises whorl by whorl (0, 1, 2, 4, 7, 9, 12) instead of jumping (0, 1, 1, 3, 5, 8,
-    18).  Plain colours, so the spines read."""
+    """The Murex with its varix spines as Table 1 places them (left) and grown per varix by
+    two activator-inhibitors along the lip (right, ``varices.placement = "grown"``): the number
+    of spines rises varix by varix (0 to 12) instead of jumping whorl by whorl (0, 1, 1, 3, 5,
+    8, 18), and long and short spines alternate.  Plain colours, so the spines read."""
     grown = replace(DEFAULT, varix_placement="grown")
     return _row([shell(DEFAULT, seed, textured=False), shell(grown, seed, textured=False)],
                 APERTURE_VIEW, SHELL_UP)
@@ -368,8 +368,8 @@ def groups_figure() -> Node:
 BEYOND: dict[str, Figure | TextureFigure] = {
     "species": Figure(species_figure, "Shells from data: Murex cabritii, Chicoreus ramosus and "
                                       "Oliva porphyria, each built from its spec."),
-    "grown": Figure(grown_spines_figure, "Spines placed by Table 1 (left) and grown by an "
-                                         "activator-inhibitor along the lip (right)."),
+    "grown": Figure(grown_spines_figure, "Spines placed by Table 1 (left) and grown per varix "
+                                         "by two activator-inhibitors along the lip (right)."),
     "walls": Figure(walls_figure, "Eq. 15 with the inside wall clipped to the shell (left) "
                                   "and as the paper's union (right)."),
     "joins": Figure(joins_figure, "Bumps joined to the whorl by the sum (left), the "

@@ -40,6 +40,7 @@ from ..nodes import (
 from ..texture import pigment
 from ..texture.mapping import HelicoSurface
 from ..texture.shell import SHELL_TEXTURES, VARIX_PALE, shell_textures
+from .growth import grown_varices
 from .spec import SHELLS, ShellSpec, load_spec
 
 # ---------------------------------------------------------------------------------------------
@@ -343,20 +344,19 @@ def spine_branches(spec: ShellSpec = DEFAULT) -> list[Node]:
     return out
 
 
-def varix_spines(whorl_index: int, thick_tops: bool = True, widen: bool = True,
-                 spec: ShellSpec = DEFAULT) -> list[Node]:
-    """B_s of Eqs. 11-12: the spines r(Z, alpha_i)(T_k(B_ki)) of Table 1 for this whorl, in the
-    paper's frame."""
-    rows = spine_table(spec)[_check_whorl(whorl_index, spec) - 1]
-    return [spine(d, thick_tops, widen, spec).rotate("z", a) for a, d in rows]
-
-
-def spine_table(spec: ShellSpec = DEFAULT) -> tuple:
-    """Table 1 as the spec places the spines: its own table, or grown (:mod:`.growth`)."""
+def varix_row(k: int, spec: ShellSpec = DEFAULT) -> tuple[tuple[float, float], ...]:
+    """(alpha_i, delta_i) of the curving spines of varix k (Eqs. 11-12): Table 1's row for its
+    whorl (``varices.placement = "table"``), or grown for this varix (:mod:`.growth`)."""
     if spec.varix_placement == "table":
-        return spec.table_1
-    from .growth import grown_table  # noqa: PLC0415  (growth imports this module's spec only)
-    return grown_table(spec)
+        return spec.table_1[whorl_of_varix(k, spec) - 1]
+    return grown_varices(spec)[_check_int("k", k, 1, spec.sections) - 1]
+
+
+def varix_spines(row: Sequence[tuple[float, float]], thick_tops: bool = True,
+                 widen: bool = True, spec: ShellSpec = DEFAULT) -> list[Node]:
+    """B_s of Eqs. 11-12: the spines r(Z, alpha_i)(T_k(B_ki)) of a row of (alpha_i, delta_i),
+    in the paper's frame."""
+    return [spine(d, thick_tops, widen, spec).rotate("z", a) for a, d in row]
 
 
 def varix_tori(spec: ShellSpec = DEFAULT) -> list[Node]:
@@ -365,11 +365,16 @@ def varix_tori(spec: ShellSpec = DEFAULT) -> list[Node]:
 
 
 def varix(whorl_index: int, tori: bool = True, thick_tops: bool = True, widen: bool = True,
-          spec: ShellSpec = DEFAULT, tori_rgb: np.ndarray | None = None) -> Node:
+          spec: ShellSpec = DEFAULT, tori_rgb: np.ndarray | None = None,
+          row: Sequence[tuple[float, float]] | None = None) -> Node:
     """Eq. 12: B_v = B_s + B_r for a varix of this whorl (Table 1, Figure 7), local frame, ready
-    for Eq. 13.  The flags switch off the stages of Figure 7; ``tori_rgb`` paints the tori (so
-    that a texture of the whole varix paints only its spines)."""
-    parts = varix_spines(whorl_index, thick_tops, widen, spec)
+    for Eq. 13; ``row``: its spines' (alpha_i, delta_i) instead of Table 1's for the whorl (a
+    grown varix, :func:`varix_row`).  The flags switch off the stages of Figure 7;
+    ``tori_rgb`` paints the tori (so that a texture of the whole varix paints only its
+    spines)."""
+    whorl_index = _check_whorl(whorl_index, spec)
+    parts = varix_spines(spec.table_1[whorl_index - 1] if row is None else row, thick_tops,
+                         widen, spec)
     if tori:
         parts += [t if tori_rgb is None else t.color(tori_rgb) for t in varix_tori(spec)]
     if not parts:
@@ -379,13 +384,12 @@ def varix(whorl_index: int, tori: bool = True, thick_tops: bool = True, widen: b
 
 
 def _varix_whorls(spec: ShellSpec) -> list[tuple[int, int]]:
-    """(k, whorl) of each varix the shell has: none where a whorl has neither spines nor tori,
+    """(k, whorl) of each varix the shell has: none where a varix has neither spines nor tori,
     and whorl 1's only with ``first_whorl``."""
-    table = spine_table(spec)
     out = []
     for k in range(1, spec.sections + 1):
         w = whorl_of_varix(k, spec)
-        if (w > 1 or spec.first_whorl_varices) and (table[w - 1] or spec.tori):
+        if (w > 1 or spec.first_whorl_varices) and (varix_row(k, spec) or spec.tori):
             out.append((k, w))
     return out
 
@@ -400,10 +404,11 @@ def varices(spec: ShellSpec = DEFAULT, texture: np.ndarray | None = None) -> lis
     which = _varix_whorls(spec)
     out = []
     for k, w in which:
+        row = varix_row(k, spec)
         if texture is None:
-            v = varix(w, spec=spec)
+            v = varix(w, spec=spec, row=row)
         else:
-            v = varix(w, spec=spec, tori_rgb=VARIX_PALE).texture(texture, wrap=wrap)
+            v = varix(w, spec=spec, tori_rgb=VARIX_PALE, row=row).texture(texture, wrap=wrap)
         out.append(place(v, varix_angle(k, spec), spec.spiral))
     canal_varices = [canal_varix(k, spec) for k, _ in which if _on_canal(k, spec)]
     if texture is not None:
@@ -422,7 +427,7 @@ def canal_varix(k: int, spec: ShellSpec = DEFAULT) -> Node:
     shrinking toward the canal's tip, placed like the canal spines (Table 2) at the varix."""
     _, _, length = _canal_geometry(spec)
     n = spec.varices_down_canal
-    size = max((d for _, d in spine_table(spec)[whorl_of_varix(k, spec) - 1]), default=1.0)
+    size = max((d for _, d in varix_row(k, spec)), default=1.0)
     parts = []
     for j in range(n):
         t = length * (0.1 + 0.8 * j / max(n - 1, 1))
@@ -434,14 +439,14 @@ def canal_varix(k: int, spec: ShellSpec = DEFAULT) -> Node:
     return place(to_shell_frame(_sum(parts)), varix_angle(k, spec), spec.spiral)
 
 
-def bump_set(whorl_index: int, theta: float, rng: np.random.Generator | None = None,
-             spec: ShellSpec = DEFAULT) -> list[Node]:
-    """One set of bumps (Figure 8) at angle theta: a point per second curving spine of the whorl,
-    scaled by (zeta_x, zeta_y, zeta_z + 0.8), zeta ~ N(s, s/10) (all s without ``rng``), placed
-    like the spines (Eq. 11) and by Eq. 8."""
+def bump_set(row: Sequence[tuple[float, float]], theta: float,
+             rng: np.random.Generator | None = None, spec: ShellSpec = DEFAULT) -> list[Node]:
+    """One set of bumps (Figure 8) at angle theta: a point per second curving spine of a varix
+    row (alpha_i, delta_i), scaled by (zeta_x, zeta_y, zeta_z + 0.8), zeta ~ N(s, s/10) (all s
+    without ``rng``), placed like the spines (Eq. 11) and by Eq. 8."""
     s = spec.bump_size
     out = []
-    for alpha, _ in spine_table(spec)[_check_whorl(whorl_index, spec) - 1][::2]:
+    for alpha, _ in row[::2]:
         zeta = rng.normal(s, s / 10.0, 3) if rng is not None else np.full(3, s)
         bump = (
             Point(radius=1.0)
@@ -473,7 +478,8 @@ def bumps(seed: int | np.random.Generator | None = 0, intervals: range | list[in
           spec: ShellSpec = DEFAULT) -> list[Node]:
     """Section 3.2: five sets of bumps between varix k and k + 1 (k in ``intervals``, default
     all), evenly spaced over section k: the varices lie 6 instance steps apart, and the sets
-    one step apart between them (half-way between the section's instances); random sizes unless
+    one step apart between them (half-way between the section's instances), a bump per second
+    spine of varix k + 1, which ends the section (its whorl's, Table 1); random sizes unless
     ``seed`` is None."""
     rng = None if seed is None else _rng(seed)
     ks = range(1, spec.sections) if intervals is None else intervals
@@ -481,10 +487,10 @@ def bumps(seed: int | np.random.Generator | None = 0, intervals: range | list[in
     out = []
     for k in ks:
         k = _check_int("intervals", k, 1, spec.sections - 1)
-        w = k // spec.sections_per_whorl + 1
+        row = varix_row(k + 1, spec)
         for m in range(sets):
             at = per * k - 0.5 + (m + 1) * per / (sets + 1)
-            out += bump_set(w, instance_angle(at, spec), rng, spec)
+            out += bump_set(row, instance_angle(at, spec), rng, spec)
     return out
 
 

@@ -143,8 +143,9 @@ class ShellSpec:
                            "Table 1: per whorl, the (alpha_i deg, delta_i) of each curving "
                            "spine of its varices (Eqs. 11-12)")
     varix_placement: str = _spec("varices", "placement", Choice(("table", "grown")),
-                                 "'table': spines as listed; 'grown': positions from an "
-                                 "activator-inhibitor along the lip (models.growth)")
+                                 "'table': spines as listed; 'grown': one row per varix, "
+                                 "positions and sizes from two activator-inhibitors along the "
+                                 "lip (models.growth)")
     first_whorl_varices: bool = _spec("varices", "first_whorl", Flag(),
                                       "whorl 1's varices (tori only when it lists no spines)")
     varices_down_canal: int = _spec("varices", "down_canal", Integer(0, 12),
