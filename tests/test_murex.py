@@ -244,6 +244,14 @@ def test_the_murex_with_the_papers_union_is_one_solid(resolution):
     assert mesh.is_watertight and mesh.solid_count() == 1
 
 
+@pytest.mark.parametrize("resolution", [128, 256])
+def test_the_murex_with_varices_down_the_canal_is_one_solid(resolution):
+    """The ridges down the canal (varices.down_canal) keep the Murex one solid."""
+    tree = M.murex(seed=0, textured=False, varices_down_canal=0.9)
+    mesh = bt.polygonize(tree, resolution=resolution)
+    assert mesh.is_watertight and mesh.solid_count() == 1
+
+
 def test_whorl_places_instances_by_eq_8():
     w = M.whorl(3, 5)
     assert count(w, bt.Point) == 3

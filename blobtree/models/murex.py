@@ -185,16 +185,24 @@ def canal_centreline(t: float, spec: ShellSpec = DEFAULT) -> tuple[np.ndarray, n
     return rot @ p + np.asarray(spec.canal_base), rot @ d
 
 
-def canal_cone(radius_a: float, radius_b: float, spec: ShellSpec = DEFAULT) -> Node:
-    """Figure 6: the warp-bent cone of the canal, in the paper's frame (from under the point,
-    toward the axis, then straight down along it)."""
-    radius, arc, length = _canal_geometry(spec)
-    cone = Cone((0.0, 0.0, 0.0), (length, 0.0, 0.0), radius_a=radius_a, radius_b=radius_b)
+def along_canal(node: Node, spec: ShellSpec = DEFAULT) -> Node:
+    """A part built along +x from the origin (x: arc length down the canal, +y: its outer side,
+    away from the shell axis) bent and placed as the canal is (Figure 6), in the paper's
+    frame: the canal's centre line is the x axis bent by the warp."""
+    _, arc, _ = _canal_geometry(spec)
     return (
-        cone.bend(spec.canal_tilt, arc, axis="x", toward="y")
+        node.bend(spec.canal_tilt, arc, axis="x", toward="y")
         .rotate("z", -90.0 - spec.canal_tilt)
         .translate(spec.canal_base[0], spec.canal_base[1], 0.0)
     )
+
+
+def canal_cone(radius_a: float, radius_b: float, spec: ShellSpec = DEFAULT) -> Node:
+    """Figure 6: the warp-bent cone of the canal, in the paper's frame (from under the point,
+    toward the axis, then straight down along it)."""
+    _, _, length = _canal_geometry(spec)
+    return along_canal(Cone((0.0, 0.0, 0.0), (length, 0.0, 0.0), radius_a=radius_a,
+                            radius_b=radius_b), spec)
 
 
 def generating_point(radius: float, spec: ShellSpec = DEFAULT) -> Node:
@@ -397,23 +405,27 @@ def _varix_whorls(spec: ShellSpec) -> list[tuple[int, int]]:
 def varices(spec: ShellSpec = DEFAULT, texture: np.ndarray | None = None) -> list[Node]:
     """Eq. 13: B_v placed by Eq. 8 at every 116 deg over the joins of the sections, three per
     whorl (21 in all for the Murex; whorl 1's without spines, see the spec), and, with
-    ``down_canal``, continued down the canal (``canal_varix``).  With ``texture`` (Figure
-    12(b)), field-interpolated on the spines' cones (Section 3.4), the tori painted in the
-    texture's pale ground colour."""
-    wrap = SHELL_TEXTURES["varix_spine"].wrap
-    which = _varix_whorls(spec)
-    out = []
-    for k, w in which:
-        row = varix_row(k, spec)
-        if texture is None:
-            v = varix(w, spec=spec, row=row)
-        else:
-            v = varix(w, spec=spec, tori_rgb=VARIX_PALE, row=row).texture(texture, wrap=wrap)
-        out.append(place(v, varix_angle(k, spec), spec.spiral))
-    canal_varices = [canal_varix(k, spec) for k, _ in which if _on_canal(k, spec)]
+    ``down_canal``, those of the canal sections continued down the canal
+    (:func:`canal_ridge`).  With ``texture`` (Figure 12(b)), field-interpolated on the spines'
+    cones (Section 3.4), the tori and ridges painted in the texture's pale ground colour."""
+    which = [k for k, _ in _varix_whorls(spec)]
+    ridges = [canal_ridge(k, spec) for k in which if _on_canal(k, spec)]
     if texture is not None:
-        canal_varices = [v.texture(texture, wrap=wrap) for v in canal_varices]
-    return out + canal_varices
+        ridges = [r.color(VARIX_PALE) for r in ridges]
+    return [placed_varix(k, spec, texture) for k in which] + ridges
+
+
+def placed_varix(k: int, spec: ShellSpec = DEFAULT, texture: np.ndarray | None = None) -> Node:
+    """Eq. 13: varix k (:func:`varix` with :func:`varix_row`'s spines) placed by Eq. 8 at its
+    angle; with ``texture`` (Figure 12(b)), field-interpolated on the spines' cones, the tori
+    painted in the texture's pale ground colour."""
+    w, row = whorl_of_varix(k, spec), varix_row(k, spec)
+    if texture is None:
+        v = varix(w, spec=spec, row=row)
+    else:
+        wrap = SHELL_TEXTURES["varix_spine"].wrap
+        v = varix(w, spec=spec, tori_rgb=VARIX_PALE, row=row).texture(texture, wrap=wrap)
+    return place(v, varix_angle(k, spec), spec.spiral)
 
 
 def _on_canal(k: int, spec: ShellSpec) -> bool:
@@ -421,22 +433,23 @@ def _on_canal(k: int, spec: ShellSpec) -> bool:
     return spec.varices_down_canal > 0 and k > spec.sections - spec.canal_sections
 
 
-def canal_varix(k: int, spec: ShellSpec = DEFAULT) -> Node:
-    """Beyond the paper (its varices stop short of the canal): ``down_canal`` spines continuing
-    varix k down the outer side of the canal, evenly along it, pointing away from the axis,
-    shrinking toward the canal's tip, placed like the canal spines (Table 2) at the varix."""
+def canal_ridge(k: int, spec: ShellSpec = DEFAULT) -> Node:
+    """Beyond the paper (Section 4: its varices stop short of the canal): varix k continued
+    down the canal's outer side as a ridge, the tori of Eq. 12 extended along it.  Each torus
+    (major radius m, field radius r about the generating point of field radius point_radius)
+    becomes a cone bent with the canal (:func:`along_canal`) over ``varices.down_canal`` of its
+    length, m c / point_radius off the canal's centre line and of field radius r c /
+    point_radius, with c the canal's field radius there: the varix scaled from the body to the
+    canal.  Table 2's spines below the varix stand on it.  In the paper's frame, placed by Eq.
+    13 at the varix."""
     _, _, length = _canal_geometry(spec)
-    n = spec.varices_down_canal
-    size = max((d for _, d in varix_row(k, spec)), default=1.0)
-    parts = []
-    for j in range(n):
-        t = length * (0.1 + 0.8 * j / max(n - 1, 1))
-        base, direction = _canal_frame(t, spec.canal_spine_base, spec.canal_spine_tilt, spec)
-        s = size * (1.0 - 0.5 * j / max(n, 1))
-        local = spine(s, spec=spec).translate(-spec.spine_offset * s, 0.0, 0.0).rotate(
-            "z", direction).translate(base[0], base[1], 0.0)
-        parts.append(local)
-    return place(to_shell_frame(_sum(parts)), varix_angle(k, spec), spec.spiral)
+    reach = spec.varices_down_canal * length
+    start, tip = (c / spec.point_radius for c in spec.canal_radii)
+    end = start + (tip - start) * reach / length  # the canal's scale where the ridge ends
+    ridge = [Cone((0.0, m * start, 0.0), (reach, m * end, 0.0), radius_a=r * start,
+                  radius_b=r * end) for m, r in spec.tori]
+    return place(to_shell_frame(along_canal(_sum(ridge), spec)), varix_angle(k, spec),
+                 spec.spiral)
 
 
 def bump_set(row: Sequence[tuple[float, float]], theta: float,

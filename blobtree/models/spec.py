@@ -148,9 +148,11 @@ class ShellSpec:
                                  "lip (models.growth)")
     first_whorl_varices: bool = _spec("varices", "first_whorl", Flag(),
                                       "whorl 1's varices (tori only when it lists no spines)")
-    varices_down_canal: int = _spec("varices", "down_canal", Integer(0, 12),
-                                    "spines continued down the canal below each varix of the "
-                                    "canal sections (the paper stops at 0)")
+    varices_down_canal: float = _spec("varices", "down_canal", _FRACTION,
+                                      "part of the canal's length each varix of the canal "
+                                      "sections runs down it, as a ridge (the tori extended) "
+                                      "carrying Table 2's spines (0: the paper's varices stop "
+                                      "short of the canal)")
     tori: tuple = _spec("varices", "tori", ListOf(Numbers(2, _SIZE), 0, 8),
                         "the concentric tori of a varix: (major radius, field radius) each")
     spine_offset: float = _spec("varices", "spine_offset", Number(0.0, 1e3),
@@ -250,6 +252,9 @@ class ShellSpec:
         if len(self.table_2) > self.sections:
             raise ValueError(f"canal_spines.table must list at most {self.sections} rows, got "
                              f"{len(self.table_2)}")
+        if self.varices_down_canal > 0 and not self.tori:
+            raise ValueError(f"varices.down_canal must be 0 when varices.tori lists none (its "
+                             f"ridge extends the tori), got {self.varices_down_canal}")
         for key in ("previous_whorl", "inside_instances"):
             a, b = getattr(self, key)
             if a > b:
