@@ -60,3 +60,21 @@ def canal_length(spec) -> float:
     """The canal's length along its centre line: the arc of :func:`canal_line`, then straight."""
     rho, tau = _canal_arc(spec)
     return rho * tau + spec.canal_straight
+
+
+def suture(field, theta: float, reach: float = 2.5, samples: int = 1001) -> float:
+    """How far out the surface lies across the outer suture at theta, in units of D(theta): from
+    the point where the whorls at theta and theta - 360 touch (Eq. 3: their circles are
+    tangent, the contact D0 / (D0 + D1) along the line of centres, which runs at beta to the
+    axis, Figure 1) outward, perpendicular to that line, to where ``field`` (points (N, 3) ->
+    (N,)) falls below 0.5; sampled every reach / (samples - 1)."""
+    r1, h1, d1 = spiral(theta)
+    r0, h0, d0 = spiral(theta - 360.0)
+    contact = np.array([r0, h0]) + d0 / (d0 + d1) * np.array([r1 - r0, h1 - h0])
+    beta = math.radians(BETA)
+    t = np.linspace(0.0, reach * d1, samples)
+    q = contact + t[:, None] * (math.cos(beta), -math.sin(beta))
+    c, s = math.cos(math.radians(theta)), math.sin(math.radians(theta))
+    inside = field(np.stack([q[:, 0] * c, q[:, 1], -q[:, 0] * s], axis=1)) >= 0.5
+    assert inside[0]  # the whorls touch
+    return float(t[np.argmax(~inside)] / d1)

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 import blobtree as bt
-from blobtree.helico import helico_spiral
 from blobtree.nodes import Bend
+from tests.shell_geometry import spiral, suture, world
 
 pytestmark = pytest.mark.slow  # builds the full shell
 
@@ -22,15 +22,6 @@ ISO = 0.5
 
 def count(node: bt.Node, kind: type) -> int:
     return sum(isinstance(n, kind) for n in node.walk())
-
-
-def to_world(local: np.ndarray, theta: float) -> np.ndarray:
-    """Points of the paper's local frame -> world: r(X, 180), then Eq. 8 (independent maths)."""
-    p = np.asarray(local, float) * (1.0, -1.0, -1.0)
-    r, h, d = helico_spiral(theta)
-    p = p * d + (r, h, 0.0)
-    c, s = math.cos(math.radians(theta)), math.sin(math.radians(theta))
-    return np.stack([c * p[:, 0] + s * p[:, 2], p[:, 1], -s * p[:, 0] + c * p[:, 2]], axis=1)
 
 
 @pytest.fixture(scope="module")
@@ -144,23 +135,6 @@ def test_without_the_fuse_the_body_seals_bubbles():
     assert bt.polygonize(plain, resolution=192).component_count() > 1
 
 
-def _suture(tree: bt.Node, theta: float, reach: float = 2.5) -> float:
-    """How far out the surface lies across the outer suture at theta: from the point where the
-    whorls at theta and theta - 360 touch (Eq. 3: the circles are tangent, the contact lies
-    D0 / (D0 + D1) along the line of centres), outward perpendicular to that line (which
-    runs at beta to the axis, Figure 1), in units of D(theta)."""
-    r1, h1, d1 = helico_spiral(theta)
-    r0, h0, d0 = helico_spiral(theta - 360.0)
-    contact = np.array([r0, h0]) + d0 / (d0 + d1) * np.array([r1 - r0, h1 - h0])
-    beta = math.radians(22.5)
-    t = np.linspace(0.0, reach * d1, 1001)
-    q = contact + t[:, None] * (math.cos(beta), -math.sin(beta))
-    c, s = math.cos(math.radians(theta)), math.sin(math.radians(theta))
-    inside = tree.field(np.stack([q[:, 0] * c, q[:, 1], -q[:, 0] * s], axis=1)) >= ISO
-    assert inside[0]  # the whorls touch
-    return float(t[np.argmax(~inside)] / d1)
-
-
 def test_the_canal_fuse_leaves_the_suture_as_eq_10_makes_it():
     """Along the whole last whorl (every half instance step up to the last instance) the
     surface across the outer suture lies where it lies without the fuse, to 0.005 D (the
@@ -169,14 +143,14 @@ def test_the_canal_fuse_leaves_the_suture_as_eq_10_makes_it():
     thetas = M.instance_angle(125) - np.arange(0.0, 348.0, M.THETA_S / 2)
     fused = M.body_whorl()
     plain = M.body_whorl(spec=replace(M.DEFAULT, canal_fuse=False))
-    got = np.array([_suture(fused, t) for t in thetas])
-    expected = np.array([_suture(plain, t) for t in thetas])
+    got = np.array([suture(fused.field, t) for t in thetas])
+    expected = np.array([suture(plain.field, t) for t in thetas])
     np.testing.assert_allclose(got, expected, atol=0.005)
     assert np.all(got < 0.5)
     secs = M.sections()
     whole = bt.controlled_blend(secs, pairs=[(j, j + 1) for j in range(20)]
                                 + [(17, 19), (17, 20), (18, 20)])
-    filled = np.array([_suture(whole, t) for t in thetas])
+    filled = np.array([suture(whole.field, t) for t in thetas])
     assert np.sum(filled > 0.6) >= 100 / (M.THETA_S / 2) - 1
 
 
@@ -255,7 +229,7 @@ def test_the_murex_with_varices_down_the_canal_is_one_solid(resolution):
 def test_whorl_places_instances_by_eq_8():
     w = M.whorl(3, 5)
     assert count(w, bt.Point) == 3
-    r, h, _ = helico_spiral(4 * M.THETA_S)
+    r, h, _ = spiral(4 * M.THETA_S)
     t = math.radians(4 * M.THETA_S)
     centre = np.array([[r * math.cos(t), h, -r * math.sin(t)]])
     assert w.field(centre)[0] > 0.9
@@ -358,11 +332,11 @@ def _radial_profile(tree, instance, alpha_deg, r_max=1.6, n=161):
     r = np.linspace(0.0, r_max, n)
     a = math.radians(alpha_deg)
     local = np.stack([r * math.cos(a), r * math.sin(a), 0 * r], axis=1)
-    return r, tree.field(to_world(local, M.instance_angle(instance)))
+    return r, tree.field(world(local, M.instance_angle(instance)))
 
 
 def test_aperture_is_hollow_with_a_wall_around_it(shell):
-    centre = to_world(np.zeros((1, 3)), M.instance_angle(125))
+    centre = world(np.zeros((1, 3)), M.instance_angle(125))
     assert shell.field(centre)[0] < ISO
     for instance, alpha in ((125, -15.0), (122, 0.0), (118, -45.0), (115, 30.0)):
         r, f = _radial_profile(shell, instance, alpha)
@@ -390,7 +364,7 @@ def _spine_axis_world(whorl_index, k, samples=12, choices=M.DEFAULT):
         p = arc * (delta, delta, M.DEFAULT.delta_max) + (c.spine_offset, 0.0, 0.0)
         a = math.radians(alpha)
         rot = np.array([[math.cos(a), -math.sin(a), 0], [math.sin(a), math.cos(a), 0], [0, 0, 1]])
-        out.append(to_world(p @ rot.T, M.varix_angle(k)))
+        out.append(world(p @ rot.T, M.varix_angle(k)))
     return out
 
 
@@ -407,7 +381,7 @@ def test_no_canal_spine_floats_free(shell):
         for size, (base, direction) in zip(sizes, M.canal_spine_frames(row), strict=True):
             t = np.linspace(0.0, M.DEFAULT.canal_spine_length * size, 10)[:, None]
             d = (math.cos(math.radians(direction)), math.sin(math.radians(direction)), 0.0)
-            axis = to_world(np.array([base[0], base[1], 0.0]) + t * d, theta)
+            axis = world(np.array([base[0], base[1], 0.0]) + t * d, theta)
             assert np.all(straight.field(axis) >= ISO)
             assert shell.field(axis[:1])[0] >= ISO  # the bent ones share the base
 
@@ -416,7 +390,7 @@ def test_canal_follows_its_centre_line():
     body = M.body_whorl()
     _, _, length = M._canal_geometry(M.DEFAULT)
     pts = np.array([[*M.canal_centreline(t)[0], 0.0] for t in np.linspace(0, length, 15)])
-    assert body.field(to_world(pts, M.instance_angle(110))).min() >= ISO
+    assert body.field(world(pts, M.instance_angle(110))).min() >= ISO
     end = M.canal_centreline(length)[0]
     assert end[0] == pytest.approx(M.AXIS_X + M.DEFAULT.canal_gap)
 
