@@ -391,15 +391,12 @@ def varix(whorl_index: int, tori: bool = True, thick_tops: bool = True, widen: b
     return to_shell_frame(_sum(parts))
 
 
-def _varix_whorls(spec: ShellSpec) -> list[tuple[int, int]]:
-    """(k, whorl) of each varix the shell has: none where a varix has neither spines nor tori,
-    and whorl 1's only with ``first_whorl``."""
-    out = []
-    for k in range(1, spec.sections + 1):
-        w = whorl_of_varix(k, spec)
-        if (w > 1 or spec.first_whorl_varices) and (varix_row(k, spec) or spec.tori):
-            out.append((k, w))
-    return out
+def _shell_varices(spec: ShellSpec) -> list[int]:
+    """The numbers k of the varices the shell has: none where a varix has neither spines nor
+    tori, and whorl 1's only with ``first_whorl``."""
+    return [k for k in range(1, spec.sections + 1)
+            if (whorl_of_varix(k, spec) > 1 or spec.first_whorl_varices)
+            and (varix_row(k, spec) or spec.tori)]
 
 
 def varices(spec: ShellSpec = DEFAULT, texture: np.ndarray | None = None) -> list[Node]:
@@ -408,7 +405,7 @@ def varices(spec: ShellSpec = DEFAULT, texture: np.ndarray | None = None) -> lis
     ``down_canal``, those of the canal sections continued down the canal
     (:func:`canal_ridge`).  With ``texture`` (Figure 12(b)), field-interpolated on the spines'
     cones (Section 3.4), the tori and ridges painted in the texture's pale ground colour."""
-    which = [k for k, _ in _varix_whorls(spec)]
+    which = _shell_varices(spec)
     ridges = [canal_ridge(k, spec) for k in which if _on_canal(k, spec)]
     if texture is not None:
         ridges = [r.color(VARIX_PALE) for r in ridges]
