@@ -98,3 +98,17 @@ def test_figures_11_and_14_are_the_shell():
     assert left.key == M.murex(0, inside=False).key  # Eq. 14 only
     assert right.key == M.murex(0).key  # with the inside wall, Eq. 15
     assert count(right, bt.Primitive) > count(left, bt.Primitive)
+
+
+def test_walls_figure_shows_both_forms_of_eq_15():
+    left, right = (c.child for c in F.walls_figure().children)
+    assert left.key == M.murex(0, textured=False).key  # clipped, the shipped spec's
+    assert right.key == M.murex(0, textured=False, wall_join="union").key
+    assert left.key != right.key
+
+
+def test_canal_figure_adds_only_the_ridges():
+    left, right = (c.child for c in F.canal_figure().children)
+    ridges = count(right, bt.Cone) - count(left, bt.Cone)
+    assert ridges == 4 * len(M.DEFAULT.tori)  # the four canal sections' varices, a cone per torus
+    assert count(left, bt.Torus) == count(right, bt.Torus) == 4 * len(M.DEFAULT.tori)

@@ -3,6 +3,7 @@ pigment patterns on the shell."""
 
 from __future__ import annotations
 
+import importlib
 import tomllib
 from dataclasses import replace
 
@@ -14,10 +15,12 @@ from click.testing import CliRunner
 import blobtree as bt
 from blobtree.cli.main import main
 from blobtree.models import SHELLS, load_spec, shell
-from blobtree.models.growth import grown_table
+from blobtree.models.growth import grown_varices
 from blobtree.models.spec import FIELDS, read_toml, spec_from_data, to_toml
 from blobtree.render.camera import framed_camera
+from tests.shell_geometry import canal_length, canal_line, varix_theta, world
 
+M = importlib.import_module("blobtree.models.murex")
 MUREX = SHELLS["murex"]
 
 
@@ -77,6 +80,12 @@ def test_the_murex_spec_holds_the_paper_numbers():
     ("version = 1\nextends = 'nautilus'\n", "extends must be one of"),
     ("version = 1\nname = 'bare'\n", "spec is missing"),
     ("version = 1\nextends = 'murex'\n[look]\ntexture = 'plaid'\n", "texture"),
+    ("version = 1\nextends = 'murex'\n[opening]\nwall_join = 'glue'\n",
+     "opening.wall_join must be one of ['clipped', 'union'], got 'glue'"),
+    ("version = 1\nextends = 'murex'\n[varices]\ndown_canal = 3\n",
+     "varices.down_canal must be a finite number >= 0 and <= 1, got 3"),
+    ("version = 1\nextends = 'murex'\n[varices]\ntori = []\ndown_canal = 0.5\n",
+     "varices.down_canal must be 0 when varices.tori lists none"),
     ("version = 1\n[canal\n", "not valid TOML"),
 ])
 def test_bad_specs_are_refused_naming_the_key(tmp_path, text, words):
@@ -150,37 +159,90 @@ def test_the_species_differ_from_the_murex():
     assert len({shell(n).key for n in SHELLS}) == len(SHELLS)
 
 
-def test_varices_run_down_the_canal_when_asked():
-    """down_canal adds, per varix of the canal sections, that many spines (the paper's stop
-    short of the canal): more cones, and field past the canal's surface below each varix."""
-    down = replace(MUREX, varices_down_canal=3)
-    count = lambda t: sum(isinstance(n, bt.Cone) for n in t.walk())  # noqa: E731
-    plain, more = bt.models.varices(MUREX), bt.models.varices(down)
-    canal_varices = sum(1 for k in range(1, 22) if k > 21 - 4)
-    assert len(more) == len(plain) + canal_varices
-    assert sum(count(v) for v in more) == sum(count(v) for v in plain) + 3 * canal_varices
+def _out_to(tree: bt.Node, start: np.ndarray, direction: np.ndarray, reach: float) -> float:
+    """How far from ``start`` along ``direction`` (world) the tree's solid reaches: the last
+    crossing of the surface within ``reach``, sampled every reach / 800."""
+    t = np.linspace(0.0, reach, 801)
+    inside = np.flatnonzero(tree.field(start + t[:, None] * direction) >= 0.5)
+    return float(t[inside[-1]]) if len(inside) else 0.0
+
+
+def test_varices_run_down_the_canal_as_ridges_carrying_the_spines():
+    """varices.down_canal = 0.9: below each varix with a row of Table 2 (the last three, at the
+    paper's angles) a ridge runs down the canal's outer side, standing more than 0.03 D out of
+    the canal from 0.1 to 0.85 of its length (measured: 0.05-0.27 D), and ends by 0.95 (the
+    canal bare again, as without it); the axis of each of Table 2's spines of the row runs
+    through it."""
+    spec = replace(MUREX, varices_down_canal=0.9)
+    body = bt.models.body_whorl(spec=spec)
+    ridged = bt.blend(body, *bt.models.varices(spec))
+    plain = bt.blend(body, *bt.models.varices(MUREX))
+    length = canal_length(spec)
+    for row, k in enumerate((19, 20, 21), 1):
+        theta = varix_theta(k)
+        for frac, stands in [*((f, True) for f in np.linspace(0.1, 0.85, 10)), (0.95, False)]:
+            p, n = canal_line(spec, frac * length)
+            start = world([*p, 0.0], theta)[0]
+            outward = world([*(p + n), 0.0], theta)[0] - start
+            bare, ridge = _out_to(plain, start, outward, 2.0), _out_to(ridged, start, outward, 2.0)
+            assert (ridge - bare > 0.03) == stands, (k, frac)  # outward is D long
+        ridge = M.canal_ridge(k, spec)
+        for base, degrees in M.canal_spine_frames(row, spec):  # each spine's axis crosses it
+            a = np.radians(degrees)
+            axis = base + np.linspace(0.0, 0.5, 51)[:, None] * (np.cos(a), np.sin(a))
+            assert ridge.field(world(np.c_[axis, np.zeros(51)], theta)).max() >= 0.5, k
 
 
 # --- grown spines and patterns -------------------------------------------------------------------
 
+#: Table 1's range of deltas (the paper's: whorl 7, 80 and -40 degrees).
+TABLE_1_DELTAS = (0.5, 1.92)
+
+
+def _interior_extrema(deltas) -> tuple[int, int]:
+    """(spines longer or shorter than both neighbours, spines with two neighbours) of a row."""
+    d = np.asarray(deltas)
+    m = d[1:-1]
+    return int(np.sum(((m > d[:-2]) & (m > d[2:])) | ((m < d[:-2]) & (m < d[2:])))), len(m)
+
+
 def test_grown_spines_change_gradually():
-    """The activator-inhibitor's spines: their number never falls from whorl to whorl and rises
-    by at most 3 (Table 1 jumps by 10, from 8 to 18); a spine once placed stays (within 2
-    degrees) on the next whorl; every spine lies on the lip and within Table 1's sizes."""
+    """The activator-inhibitor's spines, one row per varix: their number never falls from
+    varix to varix and rises by at most 3 over a whorl (Table 1 jumps by 10, from 8 to 18); a
+    spine once placed stays (within 2 degrees) on the next varix; every spine lies on the
+    lip."""
     spec = replace(MUREX, varix_placement="grown")
-    table = grown_table(spec)
-    counts = [len(row) for row in table]
-    steps = np.diff(counts)
-    assert counts[0] == 0 and counts[-1] >= 8 and np.all(steps >= 0) and steps.max() <= 3
+    rows = grown_varices(spec)
+    assert len(rows) == 21
+    counts = np.array([len(row) for row in rows])
+    assert counts[:3].sum() == 0 and counts[-1] >= 8 and np.all(np.diff(counts) >= 0)
+    assert np.all(counts[3:] - counts[:-3] <= 3)
     paper_steps = np.diff([len(row) for row in MUREX.table_1])
     assert paper_steps.max() >= 10
-    for before, after in zip(table[1:-1], table[2:], strict=True):
+    for before, after in zip(rows[3:-1], rows[4:], strict=True):
         for alpha, _ in before:
             assert min(abs(alpha - a) for a, _ in after) <= 2.0
-    deltas = [d for row in table for _, d in row]
-    assert min(deltas) >= 0.5 and max(deltas) <= 1.92
-    assert all(-90 <= a <= 90 for row in table for a, _ in row)
-    assert grown_table(replace(spec, name="again")) == table  # deterministic
+    assert all(-90 <= a <= 90 for row in rows for a, _ in row)
+    assert grown_varices(replace(spec, name="again")) == rows  # deterministic
+
+
+def test_grown_spines_alternate_long_and_short():
+    """The second, slower pattern sets the sizes: they stay within Table 1's range and cover at
+    least 70 % of it; the three varices of every whorl with spines differ; and on the last
+    whorl long and short spines alternate as in Table 1, whose whorl 7 has 11 of its 16
+    spines with two neighbours longer or shorter than both: at least 60 % here too, where the
+    placement by one pattern alone gave spines within 1.15-1.25 of each other."""
+    rows = grown_varices(replace(MUREX, varix_placement="grown"))
+    deltas = [d for row in rows for _, d in row]
+    lo, hi = TABLE_1_DELTAS
+    assert lo <= min(deltas) and max(deltas) <= hi
+    assert max(deltas) - min(deltas) >= 0.7 * (hi - lo)
+    for w in range(2, 8):
+        assert len(set(rows[3 * w - 3:3 * w])) == 3, w
+    assert _interior_extrema([d for _, d in MUREX.table_1[6]]) == (11, 16)
+    for row in rows[-3:]:
+        extrema, interior = _interior_extrema([d for _, d in row])
+        assert extrema >= 0.6 * interior
 
 
 def test_a_pattern_changes_only_the_colours():

@@ -96,7 +96,8 @@ def test_texture_nodes_where_the_paper_puts_them(shells):
     textured, plain = shells
     texs = [n for n in textured.walk() if isinstance(n, Texture)]
     helico = [t for t in texs if t.mapping != "primitive"]
-    assert len(helico) == M.SECTIONS  # one per section of L_Blobtrees (Eq. 10)
+    # one per section of L_Blobtrees (Eq. 10), and one per canal of its canal sections
+    assert len(helico) == M.SECTIONS + M.CANAL_SECTIONS
     body = next(n for n in textured.walk() if isinstance(n, ControlledBlend))
     assert all(isinstance(c, Texture) for c in body.children)
     assert helico[0].mapping.radius_factor * 1.0 > 1.16  # S bounds the tube (radius <= 1.16 D)

@@ -42,7 +42,8 @@ def _seeded(make: Callable[..., Any], seed: int) -> Any:
 def figures(out_dir: Path, height: int, samples: int, shadows: bool, look: str,
             only: tuple[str, ...], seed: int) -> None:
     """Render the paper's figures (3-11 and 14 ray traced; 12, the textures, drawn) and those
-    beyond it (species, grown spines, joins, group blends, pigment patterns)."""
+    beyond it (species, grown spines, varices down the canal, Eq. 15's two forms, joins, group
+    blends, pigment patterns)."""
     out_dir.mkdir(parents=True, exist_ok=True)
     for key in only or ALL:
         start = time.perf_counter()

@@ -21,6 +21,7 @@ from .murex import (
     SHELL_UP,
     body_whorl,
     bumps,
+    canal_ridge,
     canal_spines,
     generating_surface,
     gradient_join,
@@ -29,12 +30,13 @@ from .murex import (
     instance_angle,
     murex,
     opening,
+    placed_varix,
     sections,
     shell,
     varix,
     whorl,
 )
-from .spec import SHELLS
+from .spec import SHELLS, ShellSpec
 
 #: Local parts (generating surfaces, varices) are seen face on, the apex side up.
 LOCAL_VIEW = (0.0, 0.0, -1.0)
@@ -304,13 +306,51 @@ def species_figure(seed: int = 0) -> Node:
 
 
 def grown_spines_figure(seed: int = 0) -> Node:
-    """The Murex with its varix spines as Table 1 places them (left) and grown by an
-    activator-inhibitor along the lip (right, ``varices.placement = "grown"``): the number of
-    spines rises whorl by whorl (0, 1, 2, 4, 7, 9, 12) instead of jumping (0, 1, 1, 3, 5, 8,
-    18).  Plain colours, so the spines read."""
+    """The Murex with its varix spines as Table 1 places them (left) and grown per varix by
+    two activator-inhibitors along the lip (right, ``varices.placement = "grown"``): the number
+    of spines rises varix by varix (0 to 12) instead of jumping whorl by whorl (0, 1, 1, 3, 5,
+    8, 18), and long and short spines alternate.  Plain colours, so the spines read."""
     grown = replace(DEFAULT, varix_placement="grown")
     return _row([shell(DEFAULT, seed, textured=False), shell(grown, seed, textured=False)],
                 APERTURE_VIEW, SHELL_UP)
+
+
+def walls_figure(seed: int = 0) -> Node:
+    """Eq. 15 two ways, on the Murex in plain colours: the inside wall clipped to the shell
+    (left, ``opening.wall_join = "clipped"``, the shipped spec's) and the paper's union (right,
+    ``"union"``), where the wall, larger than the body (``opening.wall_scale``), shows outside
+    the last whorl and round the lip."""
+    return _row([shell(replace(DEFAULT, wall_join=join), seed, textured=False)
+                 for join in ("clipped", "union")], APERTURE_VIEW, SHELL_UP)
+
+
+#: How far down the canal the varices run in :func:`canal_figure` (``varices.down_canal``).
+CANAL_REACH = 0.9
+#: The canal is seen from behind the lip, where the last varices' ridges face the camera.
+CANAL_VIEW = (0.86, 0.0, 0.72)
+
+
+def _canal_with_varices(spec: ShellSpec, seed: int) -> Node:
+    """The canal sections (Eq. 10's neighbours), their varices (Eq. 13) with the ridges down
+    the canal when the spec has them, and Table 2's spines, in the spec's plain colours."""
+    n = spec.canal_sections
+    body_c, varix_c = spec.colours[:2]
+    canal = sections(spec=spec)[-n:]
+    ks = range(spec.sections - n + 1, spec.sections + 1)
+    ridges = [canal_ridge(k, spec) for k in ks] if spec.varices_down_canal else []
+    spiny = [*(placed_varix(k, spec) for k in ks), *ridges, *canal_spines(seed, spec)]
+    return blend(controlled_blend(canal, pairs=[(j, j + 1) for j in range(n - 1)]).color(body_c),
+                 *(part.color(varix_c) for part in spiny))
+
+
+def canal_figure(seed: int = 0) -> Node:
+    """The last 1 1/3 whorls with their varices and Table 2's canal spines: the paper's, whose
+    varices stop short of the canal (left, its Section 4), and ours, each varix continued down
+    the canal as a ridge that carries the spines below it (right, ``varices.down_canal``
+    0.9, :func:`~blobtree.models.murex.canal_ridge`)."""
+    ours = replace(DEFAULT, varices_down_canal=CANAL_REACH)
+    return _row([_canal_with_varices(DEFAULT, seed), _canal_with_varices(ours, seed)],
+                CANAL_VIEW, SHELL_UP)
 
 
 def patterns_figure(seed: int = 0) -> np.ndarray:
@@ -359,8 +399,13 @@ def groups_figure() -> Node:
 BEYOND: dict[str, Figure | TextureFigure] = {
     "species": Figure(species_figure, "Shells from data: Murex cabritii, Chicoreus ramosus and "
                                       "Oliva porphyria, each built from its spec."),
-    "grown": Figure(grown_spines_figure, "Spines placed by Table 1 (left) and grown by an "
-                                         "activator-inhibitor along the lip (right)."),
+    "grown": Figure(grown_spines_figure, "Spines placed by Table 1 (left) and grown per varix "
+                                         "by two activator-inhibitors along the lip (right)."),
+    "walls": Figure(walls_figure, "Eq. 15 with the inside wall clipped to the shell (left) "
+                                  "and as the paper's union (right)."),
+    "canal": Figure(canal_figure, "Varices that stop short of the canal (left, the paper) and "
+                                  "that run down it as ridges carrying Table 2's spines "
+                                  "(right).", view=CANAL_VIEW, fov=15.0),
     "joins": Figure(joins_figure, "Bumps joined to the whorl by the sum (left), the "
                                   "super-elliptic blend n = 400 (centre, the paper) and the "
                                   "gradient-based blend (right).",

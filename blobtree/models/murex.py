@@ -40,6 +40,7 @@ from ..nodes import (
 from ..texture import pigment
 from ..texture.mapping import HelicoSurface
 from ..texture.shell import SHELL_TEXTURES, VARIX_PALE, shell_textures
+from .growth import grown_varices
 from .spec import SHELLS, ShellSpec, load_spec
 
 # ---------------------------------------------------------------------------------------------
@@ -184,16 +185,24 @@ def canal_centreline(t: float, spec: ShellSpec = DEFAULT) -> tuple[np.ndarray, n
     return rot @ p + np.asarray(spec.canal_base), rot @ d
 
 
-def canal_cone(radius_a: float, radius_b: float, spec: ShellSpec = DEFAULT) -> Node:
-    """Figure 6: the warp-bent cone of the canal, in the paper's frame (from under the point,
-    toward the axis, then straight down along it)."""
-    radius, arc, length = _canal_geometry(spec)
-    cone = Cone((0.0, 0.0, 0.0), (length, 0.0, 0.0), radius_a=radius_a, radius_b=radius_b)
+def along_canal(node: Node, spec: ShellSpec = DEFAULT) -> Node:
+    """A part built along +x from the origin (x: arc length down the canal, +y: its outer side,
+    away from the shell axis) bent and placed as the canal is (Figure 6), in the paper's
+    frame: the canal's centre line is the x axis bent by the warp."""
+    _, arc, _ = _canal_geometry(spec)
     return (
-        cone.bend(spec.canal_tilt, arc, axis="x", toward="y")
+        node.bend(spec.canal_tilt, arc, axis="x", toward="y")
         .rotate("z", -90.0 - spec.canal_tilt)
         .translate(spec.canal_base[0], spec.canal_base[1], 0.0)
     )
+
+
+def canal_cone(radius_a: float, radius_b: float, spec: ShellSpec = DEFAULT) -> Node:
+    """Figure 6: the warp-bent cone of the canal, in the paper's frame (from under the point,
+    toward the axis, then straight down along it)."""
+    _, _, length = _canal_geometry(spec)
+    return along_canal(Cone((0.0, 0.0, 0.0), (length, 0.0, 0.0), radius_a=radius_a,
+                            radius_b=radius_b), spec)
 
 
 def generating_point(radius: float, spec: ShellSpec = DEFAULT) -> Node:
@@ -232,41 +241,75 @@ def sections(canal_sections: int | None = None, spec: ShellSpec = DEFAULT) -> li
                   spec) for j in range(n)]
 
 
+def canal_whorl(a: int, b: int, spec: ShellSpec = DEFAULT) -> Node:
+    """The canal of instances a..b: Eq. 9's sum of the bent canal cone of Figure 6 alone, the
+    part of the generating surface below its point."""
+    return whorl(a, b, to_shell_frame(canal_cone(*spec.canal_radii, spec=spec)), spec)
+
+
 def body_whorl(canal_sections: int | None = None, spec: ShellSpec = DEFAULT,
                texture: np.ndarray | None = None, period: float | None = None,
                colour: tuple | None = None, lumps: Sequence[Sequence[Node]] | None = None
                ) -> Node:
     """Eq. 10: B_m = c(L_blendpairs)(L_Blobtrees): each section blends with its two neighbours
-    along the spiral only, so adjacent whorls do not blend.  With ``texture`` (Figure 12(a)),
-    each section is textured separately by the bounding surface ``body_mapping`` (Section
-    3.4, one copy per ``period`` degrees, default a section); the joins lie under the
-    varices.  ``colour``: each section painted this plain colour instead.  ``lumps``: per
-    section, bumps joined to it by ``gradient_join`` (after its texture or colour, so they
-    keep their own)."""
-    secs = sections(canal_sections, spec)
+    along the spiral only, so adjacent whorls do not blend.  A canal section is two children,
+    its points and its canal (:func:`canal_whorl`), and each pair of Eq. 10 blends its two
+    sections whole (one group, the sum of both parts of each: the field of Eq. 10 over the
+    sections of Eq. 9), so that ``canal.fuse`` (:func:`canal_pairs`) can blend the canal of a
+    section with the later section a whorl on without blending their points, which would fill
+    the suture between the two whorls.
+
+    With ``texture`` (Figure 12(a)), each part is textured separately by the bounding surface
+    ``body_mapping`` (Section 3.4, one copy per ``period`` degrees, default a section); the
+    joins lie under the varices.  ``colour``: each part painted this plain colour instead.
+    ``lumps``: per section, bumps joined to its points by ``gradient_join`` (after its texture
+    or colour, so they keep their own)."""
+    n, per = spec.sections, spec.instances_per_section
+    canal_sections = spec.canal_sections if canal_sections is None else \
+        _check_int("canal_sections", canal_sections, 0, n)
+    first = n - canal_sections  # the first section with a canal
+    parts = sections(0, spec) + [canal_whorl(per * j, per * j + per - 1, spec)
+                                 for j in range(first, n)]
     if texture is not None:
         wrap = SHELL_TEXTURES["body"].wrap
         mapping = body_mapping(spec, period)
-        secs = [s.texture(texture, mapping=mapping, wrap=wrap) for s in secs]
+        parts = [s.texture(texture, mapping=mapping, wrap=wrap) for s in parts]
     elif colour is not None:
-        secs = [s.color(colour) for s in secs]
+        parts = [s.color(colour) for s in parts]
     if lumps is not None:
-        secs = [gradient_join(s, list(b)) if b else s for s, b in zip(secs, lumps, strict=True)]
-    if len(secs) == 1:
-        return secs[0]
-    return controlled_blend(secs, pairs=blend_pairs(spec, canal_sections))
+        parts[:n] = [gradient_join(s, list(b)) if b else s
+                     for s, b in zip(parts[:n], lumps, strict=True)]
+    if len(parts) == 1:
+        return parts[0]
+
+    def members(j: int) -> tuple[int, ...]:
+        return (j,) if j < first else (j, n + j - first)
+
+    groups = [members(i) + members(j) for i, j in blend_pairs(spec)]
+    groups += [(n + i - first, k) for i, j in canal_pairs(spec, canal_sections)
+               for k in (n + j - first, j)]
+    return controlled_blend(parts, pairs=[g for g in groups if len(g) == 2],
+                            groups=[g for g in groups if len(g) > 2])
 
 
-def blend_pairs(spec: ShellSpec = DEFAULT, canal_sections: int | None = None
+def blend_pairs(spec: ShellSpec = DEFAULT) -> list[tuple[int, int]]:
+    """L_blendpairs of Eq. 10: each section with the next along the spiral."""
+    return [(j, j + 1) for j in range(spec.sections - 1)]
+
+
+def canal_pairs(spec: ShellSpec = DEFAULT, canal_sections: int | None = None
                 ) -> list[tuple[int, int]]:
-    """L_blendpairs of Eq. 10: each section with the next along the spiral; with the spec's
-    ``canal.fuse``, also every two canal sections."""
+    """With the spec's ``canal.fuse`` (ours), the canal sections i < j that are not neighbours:
+    the canal of i blends with the canal and with the points of j.  The later whorl wraps round
+    the earlier canal, and without these blends their surfaces seal tunnels between them
+    (bubbles in a mesh: 4-9 at 128-320 cells with the canals alone blended, 8-11 with none).
+    The points of i and j do not blend: the canal's field is 0 at the outer suture, so the
+    suture is Eq. 10's."""
     n = spec.sections
-    neighbours = [(j, j + 1) for j in range(n - 1)]
     if not spec.canal_fuse:
-        return neighbours
+        return []
     canal = range(n - (spec.canal_sections if canal_sections is None else canal_sections), n)
-    return neighbours + [(i, j) for i in canal for j in canal if j > i + 1]
+    return [(i, j) for i in canal for j in canal if j > i + 1]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -309,20 +352,19 @@ def spine_branches(spec: ShellSpec = DEFAULT) -> list[Node]:
     return out
 
 
-def varix_spines(whorl_index: int, thick_tops: bool = True, widen: bool = True,
-                 spec: ShellSpec = DEFAULT) -> list[Node]:
-    """B_s of Eqs. 11-12: the spines r(Z, alpha_i)(T_k(B_ki)) of Table 1 for this whorl, in the
-    paper's frame."""
-    rows = spine_table(spec)[_check_whorl(whorl_index, spec) - 1]
-    return [spine(d, thick_tops, widen, spec).rotate("z", a) for a, d in rows]
-
-
-def spine_table(spec: ShellSpec = DEFAULT) -> tuple:
-    """Table 1 as the spec places the spines: its own table, or grown (:mod:`.growth`)."""
+def varix_row(k: int, spec: ShellSpec = DEFAULT) -> tuple[tuple[float, float], ...]:
+    """(alpha_i, delta_i) of the curving spines of varix k (Eqs. 11-12): Table 1's row for its
+    whorl (``varices.placement = "table"``), or grown for this varix (:mod:`.growth`)."""
     if spec.varix_placement == "table":
-        return spec.table_1
-    from .growth import grown_table  # noqa: PLC0415  (growth imports this module's spec only)
-    return grown_table(spec)
+        return spec.table_1[whorl_of_varix(k, spec) - 1]
+    return grown_varices(spec)[_check_int("k", k, 1, spec.sections) - 1]
+
+
+def varix_spines(row: Sequence[tuple[float, float]], thick_tops: bool = True,
+                 widen: bool = True, spec: ShellSpec = DEFAULT) -> list[Node]:
+    """B_s of Eqs. 11-12: the spines r(Z, alpha_i)(T_k(B_ki)) of a row of (alpha_i, delta_i),
+    in the paper's frame."""
+    return [spine(d, thick_tops, widen, spec).rotate("z", a) for a, d in row]
 
 
 def varix_tori(spec: ShellSpec = DEFAULT) -> list[Node]:
@@ -331,11 +373,16 @@ def varix_tori(spec: ShellSpec = DEFAULT) -> list[Node]:
 
 
 def varix(whorl_index: int, tori: bool = True, thick_tops: bool = True, widen: bool = True,
-          spec: ShellSpec = DEFAULT, tori_rgb: np.ndarray | None = None) -> Node:
+          spec: ShellSpec = DEFAULT, tori_rgb: np.ndarray | None = None,
+          row: Sequence[tuple[float, float]] | None = None) -> Node:
     """Eq. 12: B_v = B_s + B_r for a varix of this whorl (Table 1, Figure 7), local frame, ready
-    for Eq. 13.  The flags switch off the stages of Figure 7; ``tori_rgb`` paints the tori (so
-    that a texture of the whole varix paints only its spines)."""
-    parts = varix_spines(whorl_index, thick_tops, widen, spec)
+    for Eq. 13; ``row``: its spines' (alpha_i, delta_i) instead of Table 1's for the whorl (a
+    grown varix, :func:`varix_row`).  The flags switch off the stages of Figure 7;
+    ``tori_rgb`` paints the tori (so that a texture of the whole varix paints only its
+    spines)."""
+    whorl_index = _check_whorl(whorl_index, spec)
+    parts = varix_spines(spec.table_1[whorl_index - 1] if row is None else row, thick_tops,
+                         widen, spec)
     if tori:
         parts += [t if tori_rgb is None else t.color(tori_rgb) for t in varix_tori(spec)]
     if not parts:
@@ -344,37 +391,38 @@ def varix(whorl_index: int, tori: bool = True, thick_tops: bool = True, widen: b
     return to_shell_frame(_sum(parts))
 
 
-def _varix_whorls(spec: ShellSpec) -> list[tuple[int, int]]:
-    """(k, whorl) of each varix the shell has: none where a whorl has neither spines nor tori,
-    and whorl 1's only with ``first_whorl``."""
-    table = spine_table(spec)
-    out = []
-    for k in range(1, spec.sections + 1):
-        w = whorl_of_varix(k, spec)
-        if (w > 1 or spec.first_whorl_varices) and (table[w - 1] or spec.tori):
-            out.append((k, w))
-    return out
+def _shell_varices(spec: ShellSpec) -> list[int]:
+    """The numbers k of the varices the shell has: none where a varix has neither spines nor
+    tori, and whorl 1's only with ``first_whorl``."""
+    return [k for k in range(1, spec.sections + 1)
+            if (whorl_of_varix(k, spec) > 1 or spec.first_whorl_varices)
+            and (varix_row(k, spec) or spec.tori)]
 
 
 def varices(spec: ShellSpec = DEFAULT, texture: np.ndarray | None = None) -> list[Node]:
     """Eq. 13: B_v placed by Eq. 8 at every 116 deg over the joins of the sections, three per
     whorl (21 in all for the Murex; whorl 1's without spines, see the spec), and, with
-    ``down_canal``, continued down the canal (``canal_varix``).  With ``texture`` (Figure
-    12(b)), field-interpolated on the spines' cones (Section 3.4), the tori painted in the
-    texture's pale ground colour."""
-    wrap = SHELL_TEXTURES["varix_spine"].wrap
-    which = _varix_whorls(spec)
-    out = []
-    for k, w in which:
-        if texture is None:
-            v = varix(w, spec=spec)
-        else:
-            v = varix(w, spec=spec, tori_rgb=VARIX_PALE).texture(texture, wrap=wrap)
-        out.append(place(v, varix_angle(k, spec), spec.spiral))
-    canal_varices = [canal_varix(k, spec) for k, _ in which if _on_canal(k, spec)]
+    ``down_canal``, those of the canal sections continued down the canal
+    (:func:`canal_ridge`).  With ``texture`` (Figure 12(b)), field-interpolated on the spines'
+    cones (Section 3.4), the tori and ridges painted in the texture's pale ground colour."""
+    which = _shell_varices(spec)
+    ridges = [canal_ridge(k, spec) for k in which if _on_canal(k, spec)]
     if texture is not None:
-        canal_varices = [v.texture(texture, wrap=wrap) for v in canal_varices]
-    return out + canal_varices
+        ridges = [r.color(VARIX_PALE) for r in ridges]
+    return [placed_varix(k, spec, texture) for k in which] + ridges
+
+
+def placed_varix(k: int, spec: ShellSpec = DEFAULT, texture: np.ndarray | None = None) -> Node:
+    """Eq. 13: varix k (:func:`varix` with :func:`varix_row`'s spines) placed by Eq. 8 at its
+    angle; with ``texture`` (Figure 12(b)), field-interpolated on the spines' cones, the tori
+    painted in the texture's pale ground colour."""
+    w, row = whorl_of_varix(k, spec), varix_row(k, spec)
+    if texture is None:
+        v = varix(w, spec=spec, row=row)
+    else:
+        wrap = SHELL_TEXTURES["varix_spine"].wrap
+        v = varix(w, spec=spec, tori_rgb=VARIX_PALE, row=row).texture(texture, wrap=wrap)
+    return place(v, varix_angle(k, spec), spec.spiral)
 
 
 def _on_canal(k: int, spec: ShellSpec) -> bool:
@@ -382,32 +430,33 @@ def _on_canal(k: int, spec: ShellSpec) -> bool:
     return spec.varices_down_canal > 0 and k > spec.sections - spec.canal_sections
 
 
-def canal_varix(k: int, spec: ShellSpec = DEFAULT) -> Node:
-    """Beyond the paper (its varices stop short of the canal): ``down_canal`` spines continuing
-    varix k down the outer side of the canal, evenly along it, pointing away from the axis,
-    shrinking toward the canal's tip, placed like the canal spines (Table 2) at the varix."""
+def canal_ridge(k: int, spec: ShellSpec = DEFAULT) -> Node:
+    """Beyond the paper (Section 4: its varices stop short of the canal): varix k continued
+    down the canal's outer side as a ridge, the tori of Eq. 12 extended along it.  Each torus
+    (major radius m, field radius r about the generating point of field radius point_radius)
+    becomes a cone bent with the canal (:func:`along_canal`) over ``varices.down_canal`` of its
+    length, m c / point_radius off the canal's centre line and of field radius r c /
+    point_radius, with c the canal's field radius there: the varix scaled from the body to the
+    canal.  Table 2's spines below the varix stand on it.  In the paper's frame, placed by Eq.
+    13 at the varix."""
     _, _, length = _canal_geometry(spec)
-    n = spec.varices_down_canal
-    size = max((d for _, d in spine_table(spec)[whorl_of_varix(k, spec) - 1]), default=1.0)
-    parts = []
-    for j in range(n):
-        t = length * (0.1 + 0.8 * j / max(n - 1, 1))
-        base, direction = _canal_frame(t, spec.canal_spine_base, spec.canal_spine_tilt, spec)
-        s = size * (1.0 - 0.5 * j / max(n, 1))
-        local = spine(s, spec=spec).translate(-spec.spine_offset * s, 0.0, 0.0).rotate(
-            "z", direction).translate(base[0], base[1], 0.0)
-        parts.append(local)
-    return place(to_shell_frame(_sum(parts)), varix_angle(k, spec), spec.spiral)
+    reach = spec.varices_down_canal * length
+    start, tip = (c / spec.point_radius for c in spec.canal_radii)
+    end = start + (tip - start) * reach / length  # the canal's scale where the ridge ends
+    ridge = [Cone((0.0, m * start, 0.0), (reach, m * end, 0.0), radius_a=r * start,
+                  radius_b=r * end) for m, r in spec.tori]
+    return place(to_shell_frame(along_canal(_sum(ridge), spec)), varix_angle(k, spec),
+                 spec.spiral)
 
 
-def bump_set(whorl_index: int, theta: float, rng: np.random.Generator | None = None,
-             spec: ShellSpec = DEFAULT) -> list[Node]:
-    """One set of bumps (Figure 8) at angle theta: a point per second curving spine of the whorl,
-    scaled by (zeta_x, zeta_y, zeta_z + 0.8), zeta ~ N(s, s/10) (all s without ``rng``), placed
-    like the spines (Eq. 11) and by Eq. 8."""
+def bump_set(row: Sequence[tuple[float, float]], theta: float,
+             rng: np.random.Generator | None = None, spec: ShellSpec = DEFAULT) -> list[Node]:
+    """One set of bumps (Figure 8) at angle theta: a point per second curving spine of a varix
+    row (alpha_i, delta_i), scaled by (zeta_x, zeta_y, zeta_z + 0.8), zeta ~ N(s, s/10) (all s
+    without ``rng``), placed like the spines (Eq. 11) and by Eq. 8."""
     s = spec.bump_size
     out = []
-    for alpha, _ in spine_table(spec)[_check_whorl(whorl_index, spec) - 1][::2]:
+    for alpha, _ in row[::2]:
         zeta = rng.normal(s, s / 10.0, 3) if rng is not None else np.full(3, s)
         bump = (
             Point(radius=1.0)
@@ -439,7 +488,8 @@ def bumps(seed: int | np.random.Generator | None = 0, intervals: range | list[in
           spec: ShellSpec = DEFAULT) -> list[Node]:
     """Section 3.2: five sets of bumps between varix k and k + 1 (k in ``intervals``, default
     all), evenly spaced over section k: the varices lie 6 instance steps apart, and the sets
-    one step apart between them (half-way between the section's instances); random sizes unless
+    one step apart between them (half-way between the section's instances), a bump per second
+    spine of varix k + 1, which ends the section (its whorl's, Table 1); random sizes unless
     ``seed`` is None."""
     rng = None if seed is None else _rng(seed)
     ks = range(1, spec.sections) if intervals is None else intervals
@@ -447,10 +497,10 @@ def bumps(seed: int | np.random.Generator | None = 0, intervals: range | list[in
     out = []
     for k in ks:
         k = _check_int("intervals", k, 1, spec.sections - 1)
-        w = k // spec.sections_per_whorl + 1
+        row = varix_row(k + 1, spec)
         for m in range(sets):
             at = per * k - 0.5 + (m + 1) * per / (sets + 1)
-            out += bump_set(w, instance_angle(at, spec), rng, spec)
+            out += bump_set(row, instance_angle(at, spec), rng, spec)
     return out
 
 
@@ -662,16 +712,19 @@ def outer_shell(seed: int = 0, spec: ShellSpec = DEFAULT, textured: bool = True)
 
 def shell(spec: ShellSpec | Mapping | str | Path = "murex", seed: int = 0, inside: bool = True,
           textured: bool = True) -> Node:
-    """A whole shell from its spec (Eq. 15 for the Murex):
-    B = (B_shell - B_opening) U B_inside_wall, computed as B_shell - (B_opening - B_inside_wall).
+    """A whole shell from its spec (Eq. 15 for the Murex), by ``opening.wall_join``:
+    'union', the paper's B = (B_shell - B_opening) U B_inside_wall, or 'clipped' (the shipped
+    specs'), B = B_shell - (B_opening - B_inside_wall).
 
     The two forms are the same solid wherever the wall lies inside B_shell: min(S, max(1 - O,
-    W)) = max(min(S, 1 - O), min(S, W)) by distributivity, and the second form clips the wall to
-    the shell.  The paper's wall lies inside; ours is larger (``opening.wall_scale`` 1.2, ours)
-    so that it fills the crease the extension cones carve where the wall meets the previous
-    whorl.  Joined by the union, a wall that just touches would seal that crease inside the
-    shell as 14-48 bubbles (pieces of the mesh); clipped, the larger wall closes it and cannot
-    show outside the shell.
+    W)) = max(min(S, 1 - O), min(S, W)) by distributivity, and the clipped form clips the wall
+    to the shell.  The paper's wall lies inside; ours is larger (``opening.wall_scale`` 1.2,
+    ours) so that it fills the crease the extension cones carve where the wall meets the
+    previous whorl.  Joined by the union, a wall that just touches would seal that crease inside
+    the shell as 14-48 bubbles (pieces of the mesh); clipped, the larger wall closes it and
+    cannot show outside the shell.  With the larger wall both forms mesh to one solid at every
+    32 cells from 128 to 512 for every shipped shell, but the union shows the wall outside the
+    last whorl and round the lip (figure ``walls``), so the shipped specs clip it.
 
     The differences are rounded (``Difference.smooth``): the carving of the lip by
     ``opening.lip_smooth``, Eq. 14's cut and the wall's by ``opening.cut_smooth``.  The sharp
@@ -695,9 +748,12 @@ def shell(spec: ShellSpec | Mapping | str | Path = "murex", seed: int = 0, insid
     carved = outer_shell(seed, spec, textured)
     if spec.opening:
         hole = opening(spec).color(inside_c)
-        if inside:
-            hole = difference(hole, inside_wall(spec).color(inside_c), smooth=spec.cut_smooth)
+        wall = inside_wall(spec).color(inside_c) if inside else None
+        if wall is not None and spec.wall_join == "clipped":
+            hole = difference(hole, wall, smooth=spec.cut_smooth)
         carved = difference(carved, hole, smooth=spec.lip_smooth)
+        if wall is not None and spec.wall_join == "union":
+            carved = union(carved, wall)
     return carved.shown(up=spec.up, view=spec.view)
 
 

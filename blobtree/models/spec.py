@@ -136,18 +136,23 @@ class ShellSpec:
     canal_radii: tuple = _spec("canal", "radii", Numbers(2, _SIZE),
                                "field radii of the canal cone at base and tip")
     canal_fuse: bool = _spec("canal", "fuse", Flag(),
-                             "blend every two canal sections, not only neighbours")
+                             "each canal section's canal blends with the later canal "
+                             "sections' canals and points, not only its neighbours' (their "
+                             "points do not: the suture stays Eq. 10's)")
     table_1: tuple = _spec("varices", "table", ListOf(ListOf(_SPINE, 0, 64), 1, 40),
                            "Table 1: per whorl, the (alpha_i deg, delta_i) of each curving "
                            "spine of its varices (Eqs. 11-12)")
     varix_placement: str = _spec("varices", "placement", Choice(("table", "grown")),
-                                 "'table': spines as listed; 'grown': positions from an "
-                                 "activator-inhibitor along the lip (models.growth)")
+                                 "'table': spines as listed; 'grown': one row per varix, "
+                                 "positions and sizes from two activator-inhibitors along the "
+                                 "lip (models.growth)")
     first_whorl_varices: bool = _spec("varices", "first_whorl", Flag(),
                                       "whorl 1's varices (tori only when it lists no spines)")
-    varices_down_canal: int = _spec("varices", "down_canal", Integer(0, 12),
-                                    "spines continued down the canal below each varix of the "
-                                    "canal sections (the paper stops at 0)")
+    varices_down_canal: float = _spec("varices", "down_canal", _FRACTION,
+                                      "part of the canal's length each varix of the canal "
+                                      "sections runs down it, as a ridge (the tori extended) "
+                                      "carrying Table 2's spines (0: the paper's varices stop "
+                                      "short of the canal)")
     tori: tuple = _spec("varices", "tori", ListOf(Numbers(2, _SIZE), 0, 8),
                         "the concentric tori of a varix: (major radius, field radius) each")
     spine_offset: float = _spec("varices", "spine_offset", Number(0.0, 1e3),
@@ -212,6 +217,11 @@ class ShellSpec:
                                    "how far past the previous whorl's surface they reach")
     wall_scale: float = _spec("opening", "wall_scale", Number(0.01, 2.0),
                               "inside wall (Eq. 15) point radius / point_radius")
+    wall_join: str = _spec("opening", "wall_join", Choice(("clipped", "union")),
+                           "Eq. 15: 'union': (B_shell - B_opening) U B_inside_wall, the "
+                           "paper's form; 'clipped': B_shell - (B_opening - B_inside_wall), "
+                           "the same solid where the wall lies inside the shell, and no wall "
+                           "outside it")
     lip_smooth: float = _spec("opening", "lip_smooth", Number(0.0, 0.5),
                               "rounding of the carved lip (Eq. 15's difference), in field "
                               "value: 0 = the sharp CSG cut")
@@ -242,6 +252,9 @@ class ShellSpec:
         if len(self.table_2) > self.sections:
             raise ValueError(f"canal_spines.table must list at most {self.sections} rows, got "
                              f"{len(self.table_2)}")
+        if self.varices_down_canal > 0 and not self.tori:
+            raise ValueError(f"varices.down_canal must be 0 when varices.tori lists none (its "
+                             f"ridge extends the tori), got {self.varices_down_canal}")
         for key in ("previous_whorl", "inside_instances"):
             a, b = getattr(self, key)
             if a > b:

@@ -49,7 +49,7 @@ def group_value(vs, b, p, q, size, n, col):
 def controlled_combine(vs, b, k, p, o, mode):
     """params: npairs and the pairs' child indices; ngroups and per group its exponent n, size
     and child indices; nsingle and the single children's indices.  The pairs come first, read
-    directly, with no group bookkeeping (the shell's body is pairs only).  A winning group's
+    directly, with no group bookkeeping (most of the shell's body is pairs).  A winning group's
     gradient is sum (f_i / F)^(n - 1) grad f_i, its colour weighted by f_i^n."""
     npairs = int(p[o])
     best_f = -1.0
