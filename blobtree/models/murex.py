@@ -253,9 +253,9 @@ def body_whorl(canal_sections: int | None = None, spec: ShellSpec = DEFAULT,
                ) -> Node:
     """Eq. 10: B_m = c(L_blendpairs)(L_Blobtrees): each section blends with its two neighbours
     along the spiral only, so adjacent whorls do not blend.  A canal section is two children,
-    its points and its canal (:func:`canal_whorl`), and each pair of Eq. 10 blends its two
+    its points and its canal (``canal_whorl``), and each pair of Eq. 10 blends its two
     sections whole (one group, the sum of both parts of each: the field of Eq. 10 over the
-    sections of Eq. 9), so that ``canal.fuse`` (:func:`canal_pairs`) can blend the canal of a
+    sections of Eq. 9), so that ``canal.fuse`` (``canal_pairs``) can blend the canal of a
     section with the later section a whorl on without blending their points, which would fill
     the suture between the two whorls.
 
@@ -377,7 +377,7 @@ def varix(whorl_index: int, tori: bool = True, thick_tops: bool = True, widen: b
           row: Sequence[tuple[float, float]] | None = None) -> Node:
     """Eq. 12: B_v = B_s + B_r for a varix of this whorl (Table 1, Figure 7), local frame, ready
     for Eq. 13; ``row``: its spines' (alpha_i, delta_i) instead of Table 1's for the whorl (a
-    grown varix, :func:`varix_row`).  The flags switch off the stages of Figure 7;
+    grown varix, ``varix_row``).  The flags switch off the stages of Figure 7;
     ``tori_rgb`` paints the tori (so that a texture of the whole varix paints only its
     spines)."""
     whorl_index = _check_whorl(whorl_index, spec)
@@ -403,7 +403,7 @@ def varices(spec: ShellSpec = DEFAULT, texture: np.ndarray | None = None) -> lis
     """Eq. 13: B_v placed by Eq. 8 at every 116 deg over the joins of the sections, three per
     whorl (21 in all for the Murex; whorl 1's without spines, see the spec), and, with
     ``down_canal``, those of the canal sections continued down the canal
-    (:func:`canal_ridge`).  With ``texture`` (Figure 12(b)), field-interpolated on the spines'
+    (``canal_ridge``).  With ``texture`` (Figure 12(b)), field-interpolated on the spines'
     cones (Section 3.4), the tori and ridges painted in the texture's pale ground colour."""
     which = _shell_varices(spec)
     ridges = [canal_ridge(k, spec) for k in which if _on_canal(k, spec)]
@@ -413,7 +413,7 @@ def varices(spec: ShellSpec = DEFAULT, texture: np.ndarray | None = None) -> lis
 
 
 def placed_varix(k: int, spec: ShellSpec = DEFAULT, texture: np.ndarray | None = None) -> Node:
-    """Eq. 13: varix k (:func:`varix` with :func:`varix_row`'s spines) placed by Eq. 8 at its
+    """Eq. 13: varix k (:func:`varix` with ``varix_row``'s spines) placed by Eq. 8 at its
     angle; with ``texture`` (Figure 12(b)), field-interpolated on the spines' cones, the tori
     painted in the texture's pale ground colour."""
     w, row = whorl_of_varix(k, spec), varix_row(k, spec)
