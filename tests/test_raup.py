@@ -103,3 +103,27 @@ def test_w_is_the_growth_of_the_generating_curve_over_one_turn():
         hits = _radial_hits(tree, spiral, theta)
         widths.append(hits[1] - hits[0])
     assert widths[1] / widths[0] == pytest.approx(W, rel=0.01)
+
+
+def test_the_figure_is_raups_cube_in_a_labelled_grid(tmp_path):
+    """``blobtree figures --only raup``: one cell per (W, D, T) of the figure's corner of the
+    cube, W down the rows, each cell a shell on the backdrop with its label under it."""
+    from click.testing import CliRunner
+    from PIL import Image
+
+    from blobtree.cli.main import main
+    from blobtree.models.figures import RAUP_D, RAUP_T, RAUP_W
+
+    rows, cols, side, gap, label = len(RAUP_W), len(RAUP_D) * len(RAUP_T), 18, 8, 18
+    r = CliRunner().invoke(main, ["figures", "-o", str(tmp_path), "--only", "raup", "--height",
+                                  str(rows * side), "--samples", "1", "--no-shadows"])
+    assert r.exit_code == 0, r.output
+    img = np.asarray(Image.open(tmp_path / "figure-raup.png").convert("RGB")).astype(int)
+    assert img.shape == (gap + rows * (side + label + gap), gap + cols * (side + gap), 3)
+    for i in range(rows):
+        for j in range(cols):
+            y, x = gap + i * (side + label + gap), gap + j * (side + gap)
+            cell = img[y:y + side, x:x + side]
+            under = img[y + side:y + side + label, x:x + side]
+            assert np.ptp(cell) > 40, (i, j)  # a shell, not an empty backdrop
+            assert (under < 128).any(), (i, j)  # its label's dark text
