@@ -10,9 +10,10 @@ from typing import Any
 
 import click
 
-from ..models.figures import BEYOND, FIGURES, TEXTURE_FIGURES, TextureFigure
+from ..models.figures import BEYOND, FIGURES, TEXTURE_FIGURES, GridFigure, TextureFigure
 from ..render import LOOKS, render, save_image
 from ..render.camera import framed_camera
+from ..render.image import labelled_grid
 from . import compile_notice
 
 #: The paper's figures by number, then those beyond the paper by name.
@@ -43,7 +44,7 @@ def figures(out_dir: Path, height: int, samples: int, shadows: bool, look: str,
             only: tuple[str, ...], seed: int) -> None:
     """Render the paper's figures (3-11 and 14 ray traced; 12, the textures, drawn) and those
     beyond it (species, grown spines, varices down the canal, Eq. 15's two forms, joins, group
-    blends, pigment patterns)."""
+    blends, Raup's cube, pigment patterns)."""
     out_dir.mkdir(parents=True, exist_ok=True)
     for key in only or ALL:
         start = time.perf_counter()
@@ -51,6 +52,16 @@ def figures(out_dir: Path, height: int, samples: int, shadows: bool, look: str,
         fig = {**FIGURES, **TEXTURE_FIGURES, **BEYOND}[key]
         if isinstance(fig, TextureFigure):
             save_image(_seeded(fig.draw, seed), path)
+        elif isinstance(fig, GridFigure):
+            cells = fig.cells()
+            side = max(16, height // len(cells))
+            with compile_notice():
+                images = [[render(tree, side, side, camera=framed_camera(
+                    tree.program(), side, side, view=fig.view, up=fig.up, fov=fig.fov),
+                    samples=samples, shadows=shadows, look=look) for _, tree in row]
+                    for row in cells]
+            save_image(labelled_grid(images, [[name for name, _ in row] for row in cells]),
+                       path)
         else:
             tree = _seeded(fig.build, seed)
             aspect = fig.aspect(tree)

@@ -22,6 +22,7 @@ from .murex import (
     varix,
     whorl,
 )
+from .raup import raup, raup_spec
 from .spec import SHELLS, ShellSpec, load_spec
 from .yardstick import whorl126
 
@@ -29,5 +30,6 @@ __all__ = [
     "FIGURES", "MUREX_SPIRAL", "SHELLS", "TABLE_1", "TABLE_2", "ActivatorInhibitor",
     "HelicoSpiral", "ShellSpec", "body_whorl", "bumps", "canal_spines", "generating_surface",
     "helico_spiral", "inside_wall", "inside_whorl", "load_spec", "murex", "opening",
-    "outer_shell", "pigment_texture", "place", "shell", "varices", "varix", "whorl", "whorl126",
+    "outer_shell", "pigment_texture", "place", "raup", "raup_spec", "shell", "varices", "varix",
+    "whorl", "whorl126",
 ]

@@ -36,6 +36,7 @@ from .murex import (
     varix,
     whorl,
 )
+from .raup import raup
 from .spec import SHELLS, ShellSpec
 
 #: Local parts (generating surfaces, varices) are seen face on, the apex side up.
@@ -395,8 +396,32 @@ def groups_figure() -> Node:
                  controlled_blend(secs, groups=groups, n=GROUP_N)], APERTURE_VIEW, SHELL_UP)
 
 
+@dataclass(frozen=True)
+class GridFigure:
+    """A figure of several models in a labelled grid, each ray traced on its own and framed
+    along ``view``: ``cells()`` gives the rows of (label, model)."""
+
+    cells: Callable[[], list[list[tuple[str, Node]]]]
+    caption: str
+    view: tuple[float, float, float] = LOCAL_VIEW
+    up: tuple[float, float, float] = SHELL_UP
+    fov: float = 30.0
+
+
+#: The corner of Raup's cube the ``raup`` figure samples: W down the rows; D, then T across.
+RAUP_W, RAUP_D, RAUP_T = (1.5, 3.0, 10.0), (0.0, 0.3), (0.0, 1.0, 3.0)
+
+
+def raup_cells() -> list[list[tuple[str, Node]]]:
+    """Raup's cube of coiled forms (his 1966 figure): W against T at a few D, each shell of
+    :func:`~blobtree.models.raup` with three whorls, apex up, seen from 40 deg above its side
+    (so a planispiral shows its coil)."""
+    return [[(f"W {w:g}  D {d:g}  T {t:g}", raup(w, d, t, whorls=3)) for d in RAUP_D
+             for t in RAUP_T] for w in RAUP_W]
+
+
 #: Figures beyond the paper (its Section 4's open problems, solved): models and images.
-BEYOND: dict[str, Figure | TextureFigure] = {
+BEYOND: dict[str, Figure | TextureFigure | GridFigure] = {
     "species": Figure(species_figure, "Shells from data: Murex cabritii, Chicoreus ramosus and "
                                       "Oliva porphyria, each built from its spec."),
     "grown": Figure(grown_spines_figure, "Spines placed by Table 1 (left) and grown per varix "
@@ -413,6 +438,10 @@ BEYOND: dict[str, Figure | TextureFigure] = {
     "groups": Figure(groups_figure, "Sections blended in pairs by the sum (left, Eq. 10) and "
                                     "in groups of three by the super-elliptic blend n = 3 "
                                     "(right)."),
+    "raup": GridFigure(raup_cells, "Raup's coiling parameters: the whorl expansion rate W "
+                                   "down the rows; the distance from the axis D and the "
+                                   "translation rate T across.",
+                       view=(0.0, 0.64, -0.77)),
     "patterns": TextureFigure(patterns_figure, "Pigment grown by Meinhardt's models: stripes, "
                                                "waves, the triangles of Oliva porphyria, bands."),
 }

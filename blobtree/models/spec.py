@@ -111,7 +111,8 @@ class ShellSpec:
     name: str = _spec("", "name", Text(), "the species, as the figures and `blobtree models` "
                                           "name it")
     spiral: HelicoSpiral = _spec("spiral", "", Kind(), "Eqs. 1-3: beta (degrees), rho, r0, and "
-                                                       "optionally d_ratio = D / R")
+                                                       "optionally d_ratio = D / R; or Raup's "
+                                                       "W, D, T and r0")
     whorls: int = _spec("whorls", "count", Integer(1, 40), "number of whorls")
     whorl_deg: float = _spec("whorls", "degrees", Number(1.0, 720.0),
                              "angle of one whorl along the spiral (348 deg for the Murex)")
@@ -301,6 +302,8 @@ for _f in fields(ShellSpec):
         FIELDS[f"{_section}.{_key}" if _section else _key] = _f
 _DOTTED = {f.name: key for key, f in FIELDS.items()}
 SPIRAL_KEYS = ("beta", "rho", "r0", "d_ratio")
+#: Raup's coiling parameters, which a spiral table may give instead of beta, rho and d_ratio.
+RAUP_KEYS = ("W", "D", "T")
 TOP_KEYS = ("version", "name", "extends")
 
 
@@ -344,10 +347,10 @@ def spec_from_data(data: Mapping, base: ShellSpec | None = None,
         if key == "spiral":
             if not isinstance(value, Mapping):
                 raise ValueError(f"spiral must be a table, got {short_repr(value)}")
-            unknown = sorted(set(value) - set(SPIRAL_KEYS))
+            unknown = sorted(set(value) - set(SPIRAL_KEYS) - set(RAUP_KEYS))
             if unknown:
                 raise ValueError(f"spiral.{unknown[0]} is not a spec key; spiral allows "
-                                 f"{list(SPIRAL_KEYS)}")
+                                 f"{list(SPIRAL_KEYS)}, or {list(RAUP_KEYS)} and r0")
             spiral = dict(value)
             continue
         if not isinstance(value, Mapping):
@@ -375,6 +378,19 @@ def spec_from_data(data: Mapping, base: ShellSpec | None = None,
 
 
 def _spiral(values: dict) -> HelicoSpiral:
+    """The spiral of a spec's spiral table: beta, rho, r0 (and d_ratio), or Raup's W, D, T
+    (and r0; :meth:`HelicoSpiral.from_raup`)."""
+    raup = [k for k in RAUP_KEYS if k in values]
+    if raup:
+        mixed = sorted(set(values) - {*RAUP_KEYS, "r0"})
+        if mixed or len(raup) < len(RAUP_KEYS):
+            raise ValueError(f"spiral gives Raup's {raup}: it needs all of {list(RAUP_KEYS)} "
+                             f"(and r0), without {mixed or 'nothing else'}")
+        try:
+            return HelicoSpiral.from_raup(values["W"], values["D"], values["T"],
+                                          values.get("r0", 0.2))
+        except ValueError as e:
+            raise ValueError(f"spiral.{e}") from None
     for key in ("beta", "rho", "r0"):
         if key not in values:
             raise ValueError(f"spiral.{key} is missing")

@@ -85,3 +85,24 @@ def save_image(img: np.ndarray, path: str | os.PathLike, format: str | None = No
         Image.fromarray(img, "RGB").save(buffer, format=fmt)
         data = buffer.getvalue()
     return write_file(path, data)
+
+
+def labelled_grid(rows: list[list[np.ndarray]], labels: list[list[str]], gap: int = 8,
+                  label_height: int = 18, background: int = 255) -> np.ndarray:
+    """Images (H, W, 3 uint8, all one size) in rows, each with its label centred under it."""
+    from PIL import Image, ImageDraw  # (lazily: a render's PNG needs no Pillow)
+
+    h, w = rows[0][0].shape[:2]
+    ncols = max(len(r) for r in rows)
+    sheet = Image.new("RGB", (gap + ncols * (w + gap), gap + len(rows) * (h + label_height + gap)),
+                      (background,) * 3)
+    draw = ImageDraw.Draw(sheet)
+    for i, (images, names) in enumerate(zip(rows, labels, strict=True)):
+        y = gap + i * (h + label_height + gap)
+        for j, (image, name) in enumerate(zip(images, names, strict=True)):
+            x = gap + j * (w + gap)
+            sheet.paste(Image.fromarray(image), (x, y))
+            left, _, right, bottom = draw.textbbox((0, 0), name)
+            draw.text((x + (w - (right - left)) // 2, y + h + (label_height - bottom) // 2), name,
+                      fill=(40, 40, 40))
+    return np.asarray(sheet)
