@@ -2,7 +2,7 @@
 "Geometric analysis of shell coiling: general problems", J. Paleontology 40, 1966).
 
 W (whorl expansion rate), D (distance of the generating curve from the axis) and T (translation
-rate) map onto the helico-spiral of Eqs. 1-3 (:meth:`blobtree.helico.HelicoSpiral.from_raup`
+rate) map onto the helico-spiral of Eqs. 1-3 (:meth:`blobtree.models.HelicoSpiral.from_raup`
 derives the mapping); S, the shape of the generating curve, is the shell spec's ``point_scale``.
 The shell is then built exactly as the specs build their body whorl (Eqs. 9-10), from a spec that
 keeps only the whorls: no canal, varices, bumps or opening.
@@ -52,9 +52,9 @@ def tube_point_radius(spiral: HelicoSpiral, theta_s: float) -> float:
 def raup_spec(W: float, D: float, T: float, S: float = 1.0, whorls: int = 4,
               base: ShellSpec | None = None) -> ShellSpec:
     """The shell spec of Raup's (W, D, T, S): the spiral of
-    :meth:`~blobtree.helico.HelicoSpiral.from_raup` (R0 = 0.2), ``whorls`` turns of 360 deg,
+    :meth:`~blobtree.models.HelicoSpiral.from_raup` (R0 = 0.2), ``whorls`` turns of 360 deg,
     the generating point scaled by (1, S, 1) (S: the generating curve's height along the axis
-    over its width across it) with the field radius of :func:`tube_point_radius`, and nothing
+    over its width across it) with the field radius of ``tube_point_radius``, and nothing
     but the whorls (``base``: the Murex's spec otherwise)."""
     spiral = HelicoSpiral.from_raup(W, D, T)
     S, whorls = _S.check("S", S), _WHORLS.check("whorls", whorls)
@@ -76,7 +76,7 @@ def raup(W: float, D: float, T: float, S: float = 1.0, whorls: int = 4) -> Node:
     from it (0: a planispiral) and S the generating curve's height over its width.
 
     The spiral is Eqs. 1-3 with rho = W, beta = atan(1 / T) and D / R = (1 - D) / (1 + D)
-    (:meth:`~blobtree.helico.HelicoSpiral.from_raup` derives it); the shell is Eq. 10's body
+    (:meth:`~blobtree.models.HelicoSpiral.from_raup` derives it); the shell is Eq. 10's body
     whorl of :func:`raup_spec`: sections of a third of a turn, each blended with its neighbours
     along the spiral only, so whorls that touch do not swell into each other.  Shown apex up.
 
