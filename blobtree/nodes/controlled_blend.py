@@ -179,21 +179,42 @@ def controlled_bound(vs, b, k, p, o, reach):
 
 @kernel
 def controlled_rows(vs, b, k, p, o, nb):
+    """``controlled_combine``'s field over a batch, each step a loop over the points that
+    vectorises: the best so far in a scratch row, each pair's sum and each plain-sum group's
+    (n = 1, in list order: the values of ``group_value``) taken for all points at once; a group
+    of another exponent goes point by point."""
+    best, acc = vs[-2], vs[-1]  # scratch (ROWS_SCRATCH)
     npairs = int(p[o])
     for m in range(nb):
-        best = -1.0
-        for q in range(npairs):
-            best = max(best, vs[b + int(p[o + 1 + 2 * q]), m] + vs[b + int(p[o + 2 + 2 * q]), m])
-        q = o + 1 + 2 * npairs
-        ngroups = int(p[q])
-        q += 1
-        for _ in range(ngroups):
-            size = int(p[q + 1])
-            best = max(best, group_value(vs, b, p, q + 2, size, p[q], m))
-            q += 2 + size
-        for i in range(int(p[q])):
-            best = max(best, vs[b + int(p[q + 1 + i]), m])
-        vs[b, m] = best
+        best[m] = -1.0
+    for q in range(npairs):
+        x, y = vs[b + int(p[o + 1 + 2 * q])], vs[b + int(p[o + 2 + 2 * q])]
+        for m in range(nb):
+            best[m] = max(best[m], x[m] + y[m])
+    q = o + 1 + 2 * npairs
+    ngroups = int(p[q])
+    q += 1
+    for _ in range(ngroups):
+        n, size = p[q], int(p[q + 1])
+        if n == 1.0:
+            for m in range(nb):
+                acc[m] = 0.0
+            for i in range(size):
+                x = vs[b + int(p[q + 2 + i])]
+                for m in range(nb):
+                    acc[m] += x[m]
+            for m in range(nb):
+                best[m] = max(best[m], acc[m])
+        else:
+            for m in range(nb):
+                best[m] = max(best[m], group_value(vs, b, p, q + 2, size, n, m))
+        q += 2 + size
+    for i in range(int(p[q])):
+        x = vs[b + int(p[q + 1 + i])]
+        for m in range(nb):
+            best[m] = max(best[m], x[m])
+    for m in range(nb):
+        vs[b, m] = best[m]
 
 
 @register
