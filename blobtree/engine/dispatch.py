@@ -114,7 +114,7 @@ def _dispatcher(name: str, args: str, kind: str, case: str, miss: str) -> str:
 #: Kernels compiled into their dispatcher (the rest are called): the bounds the ray tracer asks
 #: for at every step, and the operators, whose work is small next to a call.
 INLINE_KERNELS = ("along", "lipschitz", "rise", "combine", "rows", "bound", "map")
-#: Dispatchers compiled into their one caller (``warp_map``'s, ``interp.apply_warp``, is itself
+#: Dispatchers compiled into their one caller (``warp_map``'s, ``point.apply_warp``, is itself
 #: compiled into its callers).
 INLINE_DISPATCHERS = ("prim_s", "prim_along", "prim_lipschitz", "prim_rise", "combine",
                       "combine_rows", "op_bound", "warp_map")
@@ -164,10 +164,10 @@ SOURCE = "".join([
     _dispatcher("prim_along", "p, o, ox, oy, oz, dx, dy, dz, length", "primitive",
                 lambda c: ("return K.along(p, o, ox, oy, oz, dx, dy, dz, length)"
                            if c.KERNELS.along else "return -1.0"), "return NAN"),
-    _dispatcher("prim_rise", "p, o, lox, loy, loz, hix, hiy, hiz, dx, dy, dz, spread",
-                "primitive",
-                lambda c: ("return K.rise(p, o, lox, loy, loz, hix, hiy, hiz, dx, dy, dz, "
-                           "spread)" if c.KERNELS.rise else "return -1.0"), "return NAN"),
+    _dispatcher("prim_rise", "p, o, box, cone", "primitive",
+                lambda c: ("return K.rise(p, o, box[0], box[1], box[2], box[3], box[4], "
+                           "box[5], cone[0], cone[1], cone[2], cone[3])" if c.KERNELS.rise
+                           else "return -1.0"), "return NAN"),
     _dispatcher("prim_rows", "fid, p, o, pts, pp, vs, sp, nb", "primitive", _ROWS, "return"),
     _dispatcher("combine", "vs, b, k, p, o, mode", "operator",
                 "K.combine(vs, b, k, p, o, mode)\nreturn", "return"),
@@ -223,7 +223,7 @@ prim_lipschitz = _D["prim_lipschitz"]
 #: bound on |df/dt| along a frame segment, or -1: prim_along(op, p, o, ox.., dx.., length)
 prim_along = _D["prim_along"]
 #: bound on how fast a primitive's field rises in a frame box along a cone of directions, or -1:
-#: prim_rise(op, p, o, lo.., hi.., dx.., spread)
+#: prim_rise(op, p, o, (lox, loy, loz, hix, hiy, hiz), (dx, dy, dz, spread))
 prim_rise = _D["prim_rise"]
 #: a warp's query map over the batch's points in place: warp_rows(op, p, o, pts, pp, nb)
 warp_rows = _D["warp_rows"]

@@ -27,6 +27,8 @@ from numba.core import event, types
 from numba.core.caching import FunctionCache
 from numba.core.runtime import rtsys
 
+from .linked import Linked, register_cached
+
 _PACKAGE = Path(__file__).resolve().parents[1]
 #: Parts of the package no kernel depends on: code numba never compiles, and the mesher, whose
 #: kernels (:func:`cached`) are keyed on their own source file, as they call no engine kernel.
@@ -53,8 +55,10 @@ class _QuickCache(FunctionCache):
         """numba's, without the refresh: it imports and installs every registry numba has
         (0.25-0.5 s on the first call of a process, SciPy's BLAS check included), which only
         compiling needs, and numba's compiler refreshes before it compiles.  Loading needs
-        only the runtime's symbols (``rtsys``)."""
+        only the runtime's symbols (``rtsys``) and those of the linked kernels in the cache
+        (``linked.register_cached``)."""
         rtsys.initialize(target_context)
+        register_cached()
         with self._guard_against_spurious_io_errors():
             return self._load_overload(sig, target_context)
 
@@ -123,6 +127,20 @@ def kernel(fn: Callable | None = None, *, tag: str = "", nrt: bool = False,
         return dispatcher
 
     return wrap(fn) if fn is not None else wrap
+
+
+def linked(signature, **options) -> Callable[[Callable], Linked]:
+    """A kernel compiled once on its own with ``signature`` (numba types) and called by symbol
+    from other kernels through its ``.call`` (see ``runtime.linked``): for the program walks,
+    which many kernels call.  Keyed on the whole engine like :func:`kernel`; numpy's error
+    model, no reference counting."""
+
+    def wrap(f: Callable) -> Linked:
+        opts = {"error_model": "numpy", "_nrt": False, **options}
+        return Linked(f, signature, opts, lambda: _LazyCache(lambda: _EngineCache(f, "linked")),
+                      lambda: kernel(f, tag="python"))
+
+    return wrap
 
 
 def _call_template(dispatcher, args, kws):
