@@ -120,16 +120,22 @@ INLINE_DISPATCHERS = ("prim_s", "prim_along", "prim_lipschitz", "prim_rise", "co
                       "combine_rows", "op_bound", "warp_map")
 
 
+def _inlined(fn):
+    """``fn`` compiled on its own, once, and inlined by LLVM into each caller (numba's own
+    inlining would type its body again at every call site)."""
+    return kernel(fn, forceinline=True, tag="inline")
+
+
 def _kernels() -> dict[str, object]:
     """Every type's kernels by their name in the generated source, k<opcode>_<kernel>."""
     out: dict[str, object] = {}
     for cls in TYPES:
         for field, fn in vars(cls.KERNELS).items():
             if fn is not None:
-                out[f"k{OPCODE[cls]}_{field}"] = (kernel(fn.py_func, inline="always")
+                out[f"k{OPCODE[cls]}_{field}"] = (_inlined(fn.py_func)
                                                   if field in INLINE_KERNELS else fn)
         if cls.KIND == "primitive":  # batch loops inline s: the gradient they drop is not computed
-            out[f"k{OPCODE[cls]}_s_inline"] = kernel(cls.KERNELS.s.py_func, inline="always")
+            out[f"k{OPCODE[cls]}_s_inline"] = _inlined(cls.KERNELS.s.py_func)
     return out
 
 
@@ -207,8 +213,8 @@ def _build() -> dict[str, object]:
     exec(compile(SOURCE, __file__, "exec"), namespace)  # noqa: S102 (our own generated code)
     names = ("prim_s", "prim_uv", "prim_lipschitz", "prim_along", "prim_rise", "prim_rows",
              "combine", "op_bound", "combine_rows", "warp_map", "warp_rows", "paint")
-    return {name: kernel(namespace[name],
-                         inline="always" if name in INLINE_DISPATCHERS else "never")
+    return {name: (_inlined(namespace[name]) if name in INLINE_DISPATCHERS
+                   else kernel(namespace[name]))
             for name in names}
 
 

@@ -118,6 +118,8 @@ def kernel(fn: Callable | None = None, *, tag: str = "", nrt: bool = False,
 
     def wrap(f: Callable):
         opts = {"error_model": "numpy", **options}
+        if opts.get("inline", "never") == "never":  # (numba's callees inherit the flag)
+            opts.setdefault("forceinline", False)
         if not nrt:
             opts["_nrt"] = False
         dispatcher = numba.njit(**opts)(f)
