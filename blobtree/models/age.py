@@ -17,7 +17,7 @@ the same way while the lip stands at its angle.  The parts the paper places rela
 lip (the opening of Eqs. 14-15, the canal of the last sections with Table 2's spines) move with
 it (:attr:`Growth.shift`); the canal leaves the oldest of its instances as gradually as it
 reaches a new one, and a varix keeps its Table 2 row of canal spines (the rows repeat along the
-spiral) until ``len(table)`` later varices have formed.
+spiral) until the lip reaches the ``len(table)``-th varix after it.
 """
 
 from __future__ import annotations
@@ -25,6 +25,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from ..checks import Number
+from ..nodes import Node
 from .spec import ShellSpec
 
 #: Time a varix takes to form, with the lip standing at its angle, in units of the time the
@@ -101,19 +102,23 @@ class Growth:
         over one step when the lip has moved on past the last ``canal.sections`` sections."""
         spec = self.spec
         reach = spec.canal_sections * spec.instances_per_section  # the canal's instances
-        return min(self.size(i), _clip(i - (self.lip - reach)))
+        return min(self.size(i), _clip(i - (self.lip - reach))) if reach else 0.0
 
     def varix(self, k: int) -> float:
         """How far varix k (1..sections) has grown."""
         return self.varices[k - 1]
 
     def canal_spines(self, k: int) -> float:
-        """How far the canal spines under varix k have grown: with the varix, and gone over
-        the time the ``len(table)``-th varix after it forms (each row of Table 2 stays on its
-        varix; the last ``len(table)`` varices carry them)."""
-        later = k + len(self.spec.table_2)
-        return min(self.varix(k), 1.0 - (self.varix(later) if later <= self.spec.sections
-                                         else 0.0))
+        """How far the canal spines under varix k have grown: with the varix, and gone as the
+        lip advances to the ``len(table)``-th varix after it (each row of Table 2 stays on its
+        varix; the last ``len(table)`` varices carry them).  They go while the lip advances,
+        not while a varix forms, so that the shell gains more than it loses at every step."""
+        spec = self.spec
+        later = k + len(spec.table_2)
+        if later > spec.sections:
+            return self.varix(k)
+        start, stop = varix_position(later - 1, spec), varix_position(later, spec)
+        return min(self.varix(k), 1.0 - _clip((self.lip - start) / (stop - start)))
 
 
 def _clip(x: float) -> float:
@@ -122,7 +127,6 @@ def _clip(x: float) -> float:
     return 0.0 if x < MIN_SIZE else x
 
 
-def grown(node, f: float):
-    """A part grown to ``f`` of its size about its local origin (itself when whole)."""
-    return node if f >= 1.0 else node.scale(f)
-
+def grown(node: Node, size: float) -> Node:
+    """A part grown to ``size`` of itself about its local origin (itself when whole)."""
+    return node if size >= 1.0 else node.scale(size)
