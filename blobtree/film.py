@@ -29,6 +29,9 @@ from .output import write_file
 from .render import LOOKS, Camera, render
 from .render.image import encode_png
 
+__all__ = ["FILM_FORMATS", "MAX_FRAMES", "MP4_CRF", "WEBP_QUALITY", "Film", "FrameStore",
+           "check_size", "encode_film", "local_frames", "make_film"]
+
 #: Film formats: name (an extension without its dot) -> what encodes it.
 FILM_FORMATS = {"mp4": "mp4", "gif": "GIF", "webp": "WEBP"}
 #: H.264's constant rate factor for MP4 films (18: visually lossless on these smooth images).
@@ -161,7 +164,7 @@ class FrameStore:
 
 
 #: Renders frames somewhere: (film, frame indices) -> (index, pixels)... as they finish.
-FrameSource = Callable[[Film, list[int]], Iterator[tuple[int, np.ndarray]]]
+_FrameSource = Callable[[Film, list[int]], Iterator[tuple[int, np.ndarray]]]
 
 
 def local_frames(film: Film, indices: list[int]) -> Iterator[tuple[int, np.ndarray]]:
@@ -170,7 +173,7 @@ def local_frames(film: Film, indices: list[int]) -> Iterator[tuple[int, np.ndarr
         yield i, film.frame(i)
 
 
-def make_film(film: Film, store: FrameStore, source: FrameSource | None = None,
+def make_film(film: Film, store: FrameStore, source: _FrameSource | None = None,
               progress: bool = False) -> None:
     """Render the frames ``store`` lacks (in :meth:`Film.order`) by ``source`` (default
     :func:`local_frames`), keeping each in the store as it finishes; ``progress`` shows a bar
