@@ -4,7 +4,8 @@ A shell grows at its lip: the generating curve moves along the spiral (Eq. 8) an
 whorl behind it (Eq. 9).  A murex grows in spurts: its lip advances over a section, stops, and
 builds a varix there (Section 3.1: a varix ends every section) before it advances again.  Time
 here is that walk: the lip advances one instance step (theta_s of Eq. 9) per unit of time and
-stops :data:`VARIX_TIME` units at each varix's angle (Eq. 13) while the varix grows.  An
+stops :data:`VARIX_TIME` units at each varix's angle (Eq. 13) while the varix grows (at the end
+of every section, whether or not the spec gives it a varix).  An
 ``age`` in [0, 1] is a fraction of the whole walk: at 0 the lip stands on instance 0 (the
 embryonic shell, a lone generating surface), at 1 on the last instance with every varix built:
 the whole shell of the spec.
@@ -66,7 +67,7 @@ class Growth:
             object.__setattr__(self, "varices", (1.0,) * n)
             return
         t = self.age * (stops[-1] + n * VARIX_TIME)  # the whole walk's time, in instance steps
-        lip, grown, at = 0.0, [], 0.0
+        lip, formed, at = 0.0, [], 0.0
         for stop in stops:
             walk = stop - at
             if t <= walk:
@@ -74,12 +75,12 @@ class Growth:
                 break
             t -= walk
             lip = at = stop
-            grown.append(min(t / VARIX_TIME, 1.0))
+            formed.append(min(t / VARIX_TIME, 1.0))
             t -= VARIX_TIME
             if t <= 0.0:
                 break
         object.__setattr__(self, "lip", lip)
-        object.__setattr__(self, "varices", tuple(grown) + (0.0,) * (n - len(grown)))
+        object.__setattr__(self, "varices", tuple(formed) + (0.0,) * (n - len(formed)))
 
     @property
     def full(self) -> bool:
