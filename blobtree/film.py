@@ -120,23 +120,19 @@ class FrameStore:
 
     def __init__(self, directory: str | Path, film: Film, resume: bool = False):
         self.directory = Path(directory)
-        try:
-            self.directory.mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise ValueError(f"frame directory {str(directory)!r}: {exc}") from None
+        if self.directory.exists() and not self.directory.is_dir():
+            raise ValueError(f"frame directory {str(directory)!r} is not a directory")
         self.film = film
         self.digits = max(4, len(str(film.frames)))
-        manifest = self.directory / self.MANIFEST
-        if manifest.exists():
-            held = json.loads(manifest.read_text()).get("film")
+        self.manifest = self.directory / self.MANIFEST
+        if self.manifest.exists():
+            held = json.loads(self.manifest.read_text()).get("film")
             if not resume:
                 raise ValueError(f"frame directory {str(directory)!r} already holds a film; "
                                  "resume it (--resume) or use an empty directory")
             if held != film.key:
                 raise ValueError(f"frame directory {str(directory)!r} holds another film (scene, "
                                  "frames, size, camera or look differ); use an empty directory")
-        else:
-            write_file(manifest, json.dumps({"film": film.key}).encode())
 
     def path(self, i: int) -> Path:
         """The file of frame i (0-based)."""
@@ -144,11 +140,19 @@ class FrameStore:
 
     def done(self) -> set[int]:
         """The frames (0-based) already in the directory."""
+        if not self.manifest.exists():
+            return set()
         return {int(m.group(1)) - 1 for p in self.directory.iterdir()
                 if (m := _FRAME.fullmatch(p.name)) and 1 <= int(m.group(1)) <= self.film.frames}
 
     def save(self, i: int, img: np.ndarray) -> None:
-        """Keep frame i."""
+        """Keep frame i (the directory and its manifest are made with the first frame)."""
+        if not self.manifest.exists():
+            try:
+                self.directory.mkdir(parents=True, exist_ok=True)
+            except OSError as exc:
+                raise ValueError(f"frame directory {str(self.directory)!r}: {exc}") from None
+            write_file(self.manifest, json.dumps({"film": self.film.key}).encode())
         write_file(self.path(i), encode_png(img))
 
     def load(self, i: int) -> np.ndarray:
@@ -160,7 +164,7 @@ class FrameStore:
 
     def files(self) -> list[Path]:
         """Every file the store wrote (its frames and its manifest)."""
-        return [self.path(i) for i in sorted(self.done())] + [self.directory / self.MANIFEST]
+        return [self.path(i) for i in sorted(self.done())] + [self.manifest]
 
 
 #: Renders frames somewhere: (film, frame indices) -> (index, pixels)... as they finish.
