@@ -6,7 +6,9 @@ cut, so the assembled image equals the local one.  A mesh sends its batched fiel
 (culling bounds, lattice sampling, vertex placement) to the workers in chunks large enough to take
 the same evaluation path as locally, so it equals the local mesh.  The tree travels as its scene
 file text; each worker process compiles a scene once and keeps the program, keyed by the text's
-hash.  A worker lost mid-job only delays it: Dask reruns its tasks elsewhere.
+hash.  A worker lost mid-job only delays it: Dask reruns its tasks elsewhere.  A film
+(:mod:`blobtree.film`) sends each frame as one task: the worker builds the shell at the frame's
+age and renders it whole, with the same bytes as locally.
 
 This module sits above the renderer and the mesher and plugs into them: :func:`render` gives
 ``blobtree.render.render`` a source of remote tiles, :func:`polygonize` gives
@@ -28,6 +30,7 @@ import numpy as np
 from . import mesh
 from . import render as raytrace
 from .engine import GRID_MIN_POINTS, Program
+from .film import Film
 from .io import dumps, loads
 from .nodes import Node
 from .render import Camera, Light, RenderSettings, render_tile
@@ -156,6 +159,28 @@ def remote_tiles(scheduler: str | Client, tree: Node, camera: Camera, lights: Se
         scene = send_scene(client, tree)
         futures = {client.submit(_render_tile, scene, camera, list(lights), settings, rect,
                                  pure=False): rect for rect in rects}
+        try:
+            for future in dd.as_completed(list(futures)):
+                yield futures.pop(future), future.result()
+        finally:
+            client.cancel(list(futures))
+
+
+# ----- films --------------------------------------------------------------------------------
+def _film_frame(film: Film, i: int) -> np.ndarray:
+    """Worker task: one frame of a film (its shell built and compiled on the worker)."""
+    return film.frame(i)
+
+
+def remote_frames(scheduler: str | Client, film: Film, indices: Sequence[int]
+                  ) -> Iterator[tuple[int, np.ndarray]]:
+    """Render a film's frames ``indices`` on the cluster, one task each, yielding (index,
+    pixels) as they finish (``blobtree.film.make_film``'s source).  A worker lost mid-frame
+    costs that frame: Dask runs it again elsewhere.  Closing the iterator early (an error,
+    Ctrl-C) cancels the frames not yet done."""
+    dd = _distributed()
+    with connect(scheduler) as client:
+        futures = {client.submit(_film_frame, film, i, pure=False): i for i in indices}
         try:
             for future in dd.as_completed(list(futures)):
                 yield futures.pop(future), future.result()

@@ -16,7 +16,7 @@ LAYERS = [
     {"geometry", "fields", "helico", "texture", "nodes"},
     {"io", "models"},
     {"engine"},
-    {"render", "mesh"},
+    {"render", "mesh", "film"},
     {"distributed"},
     {"api"},
     {"cli"},

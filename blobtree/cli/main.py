@@ -17,6 +17,7 @@ from ..nodes import Node
 from ..output import is_stdout, write_file
 from . import checked_output, compile_notice, length_mm, start_command
 from .figures_cmd import figures
+from .grow_cmd import grow
 from .mesh_cmd import mesh
 from .render_cmd import render
 from .scenes import BUILTIN, resolve_scene, scene_up
@@ -133,6 +134,7 @@ def spec(name: str, output: Path) -> None:
 
 
 main.add_command(figures)
+main.add_command(grow)
 main.add_command(mesh)
 main.add_command(render)
 main.add_command(view)

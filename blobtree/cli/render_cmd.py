@@ -4,13 +4,16 @@ from __future__ import annotations
 
 import sys
 import time
+from collections.abc import Callable
+from typing import Any
 
 import click
 
 from ..api import render as render_image
+from ..nodes import Node
 from ..output import display_name
 from ..render import LOOKS, Camera, save_image, warm_kernels
-from ..render.camera import default_camera
+from ..render.camera import default_camera, seen_camera
 from ..render.image import IMAGE_FORMATS
 from ..render.tiles import MAX_SIDE
 from . import checked_output, compile_notice, floats, format_option
@@ -28,6 +31,41 @@ def _size(ctx, param, value):
     return w, h
 
 
+def look_options(command: Callable[..., Any]) -> Callable[..., Any]:
+    """The options of an image's look (rays per pixel, shadows, look, background), shared by
+    ``render`` and ``grow``."""
+    for option in reversed([
+        click.option("--samples", default=1, show_default=True,
+                     help="Rays per pixel (anti-aliasing)."),
+        click.option("--no-shadows", is_flag=True, help="Skip shadow rays."),
+        click.option("--look", type=click.Choice(sorted(LOOKS)), default="studio",
+                     show_default=True,
+                     help="studio: soft backdrop, soft shadows, ambient occlusion; glossy: the "
+                          "same, polished; paper: the plain style of the paper's figures."),
+        click.option("--background", callback=floats(3),
+                     help="Plain background colour r,g,b in [0, 1] instead of the look's "
+                          "backdrop."),
+    ]):
+        command = option(command)
+    return command
+
+
+def command_camera(scene: str, tree: Node, prog, width: int, height: int,
+                   eye: tuple | None = None, target: tuple | None = None,
+                   up: tuple = (0.0, 1.0, 0.0), fov: float | None = None) -> Camera:
+    """The camera ``render`` uses: the one given by ``eye``, ``target``, ``up`` and ``fov``
+    (framed for what is not given), else the scene's own view (a figure's or a shell's), else
+    the framed three-quarter view."""
+    if eye is None and target is None and fov is None:  # a built-in model's own view
+        return scene_camera(scene, tree, prog, width, height) or \
+            seen_camera(tree, prog, width, height)
+    if eye is None or target is None or fov is None:
+        framed = default_camera(prog, width, height)
+        eye, target = eye or framed.eye, target or framed.target
+        fov = framed.fov if fov is None else fov
+    return Camera(eye=eye, target=target, up=up, fov=fov)
+
+
 @click.command("render")
 @click.argument("scene")
 @click.option("-o", "--output", default="render.png", show_default=True,
@@ -36,18 +74,12 @@ def _size(ctx, param, value):
 @format_option(IMAGE_FORMATS)
 @click.option("--size", default="800x800", show_default=True, callback=_size,
               help="Image size WIDTHxHEIGHT in pixels.")
-@click.option("--samples", default=1, show_default=True, help="Rays per pixel (anti-aliasing).")
+@look_options
 @click.option("--eye", callback=floats(3), help="Camera position x,y,z (default: framed view).")
 @click.option("--target", callback=floats(3), help="Point looked at x,y,z.")
 @click.option("--up", default="0,1,0", show_default=True, callback=floats(3),
               help="Camera up vector x,y,z.")
 @click.option("--fov", type=float, default=None, help="Vertical field of view, degrees.")
-@click.option("--no-shadows", is_flag=True, help="Skip shadow rays.")
-@click.option("--look", type=click.Choice(sorted(LOOKS)), default="studio", show_default=True,
-              help="studio: soft backdrop, soft shadows, ambient occlusion; glossy: the same, "
-                   "polished; paper: the plain style of the paper's figures.")
-@click.option("--background", callback=floats(3),
-              help="Plain background colour r,g,b in [0, 1] instead of the look's backdrop.")
 @click.option("--tile", type=int, default=None,
               help="Tile side in pixels  [default: 128 for large images, else 64].")
 @click.option("--checkpoint", type=click.Path(file_okay=False),
@@ -71,15 +103,7 @@ def render(scene, output, fmt, size, samples, eye, target, up, fov, no_shadows, 
             if scheduler is None:  # the kernels load while the program and camera are built
                 warm = warm_kernels()
             prog = tree.program()
-            camera = None
-            if eye is None and target is None and fov is None:  # a built-in model's own view
-                camera = scene_camera(scene, tree, prog, width, height)
-            else:
-                if eye is None or target is None or fov is None:
-                    framed = default_camera(prog, width, height)
-                    eye, target = eye or framed.eye, target or framed.target
-                    fov = framed.fov if fov is None else fov
-                camera = Camera(eye=eye, target=target, up=up, fov=fov)
+            camera = command_camera(scene, tree, prog, width, height, eye, target, up, fov)
             with cluster(scheduler, dask_workers, quiet) as client:
                 img = render_image(tree, width, height, camera=camera, samples=samples,
                                    shadows=not no_shadows, background=background, look=look,

@@ -52,6 +52,21 @@ def scene_camera(name: str, tree: Node, prog, width: int, height: int) -> Camera
     return framed_camera(prog, width, height, view=view, up=up, fov=fov)
 
 
+def scene_spec(name: str) -> models.ShellSpec:
+    """The shell spec SCENE names: a shipped species or a .toml spec file (what ``grow``
+    films); a usage error naming SCENE otherwise."""
+    if name in models.SHELLS:
+        return models.SHELLS[name]
+    if Path(name).suffix.lower() == ".toml":
+        try:
+            return models.load_spec(name)
+        except ValueError as e:
+            raise click.BadParameter(str(e), param_hint="SCENE") from None
+    raise click.BadParameter(f"{name!r} is not a shell: a shipped species "
+                             f"({', '.join(sorted(models.SHELLS))}) or a .toml spec file",
+                             param_hint="SCENE")
+
+
 def resolve_scene(name: str) -> Node:
     """Load ``name`` as a scene file if it is one, else build the built-in model of that name."""
     if name in BUILTIN:

@@ -40,6 +40,7 @@ from ..nodes import (
 from ..texture import pigment
 from ..texture.mapping import HelicoSurface
 from ..texture.shell import SHELL_TEXTURES, VARIX_PALE, shell_textures
+from .age import Growth, grown, varix_position
 from .growth import grown_varices
 from .spec import SHELLS, ShellSpec, load_spec
 
@@ -143,8 +144,7 @@ def varix_angle(k: int, spec: ShellSpec = DEFAULT) -> float:
     joins are covered by a varix).  The last varix closes the last section at the opening, where
     there is no join: it sits on the last instance, as past it the body's tube ends (half a step
     further, its spines would hang off the lip)."""
-    k = _check_int("k", k, 1, spec.sections)
-    return instance_angle(min(spec.instances_per_section * k - 0.5, spec.instances - 1), spec)
+    return instance_angle(varix_position(_check_int("k", k, 1, spec.sections), spec), spec)
 
 
 def whorl_of_varix(k: int, spec: ShellSpec = DEFAULT) -> int:
@@ -220,12 +220,21 @@ def generating_surface(canal: bool = False, spec: ShellSpec = DEFAULT) -> Node:
     return point + to_shell_frame(canal_cone(*spec.canal_radii, spec=spec))
 
 
-def whorl(a: int, b: int, generating: Node | None = None, spec: ShellSpec = DEFAULT) -> Node:
-    """Eq. 9: B_w a..b = sum_{i=a..b} P(B_g, theta_s i); B_g defaults to the plain point."""
+def whorl(a: int, b: int, generating: Node | None = None, spec: ShellSpec = DEFAULT,
+          shift: float = 0.0) -> Node:
+    """Eq. 9: B_w a..b = sum_{i=a..b} P(B_g, theta_s (i + shift)); B_g defaults to the plain
+    point; ``shift`` (instance steps, any real) moves the whole whorl along the spiral."""
     a = _check_int("a", a, 0, 10 * spec.instances)
     b = _check_int("b", b, a, 10 * spec.instances)
     g = generating_surface(spec=spec) if generating is None else generating
-    return _sum([place(g, instance_angle(i, spec), spec.spiral) for i in range(a, b + 1)])
+    return _sum([place(g, instance_angle(i + shift, spec), spec.spiral)
+                 for i in range(a, b + 1)])
+
+
+def placed(part: Node, x: float, size: float, spec: ShellSpec = DEFAULT) -> Node:
+    """Eq. 8 at instance position x (theta_s x) of a local part grown to ``size`` of itself
+    (:attr:`Growth.size <blobtree.models.age.Growth.size>`; 1: the part as it is)."""
+    return place(grown(part, size), instance_angle(x, spec), spec.spiral)
 
 
 def sections(canal_sections: int | None = None, spec: ShellSpec = DEFAULT) -> list[Node]:
@@ -249,8 +258,8 @@ def canal_whorl(a: int, b: int, spec: ShellSpec = DEFAULT) -> Node:
 
 def body_whorl(canal_sections: int | None = None, spec: ShellSpec = DEFAULT,
                texture: np.ndarray | None = None, period: float | None = None,
-               colour: tuple | None = None, lumps: Sequence[Sequence[Node]] | None = None
-               ) -> Node:
+               colour: tuple | None = None, lumps: Sequence[Sequence[Node]] | None = None,
+               age: float = 1.0) -> Node:
     """Eq. 10: B_m = c(L_blendpairs)(L_Blobtrees): each section blends with its two neighbours
     along the spiral only, so adjacent whorls do not blend.  A canal section is two children,
     its points and its canal (``canal_whorl``), and each pair of Eq. 10 blends its two
@@ -263,13 +272,30 @@ def body_whorl(canal_sections: int | None = None, spec: ShellSpec = DEFAULT,
     ``body_mapping`` (Section 3.4, one copy per ``period`` degrees, default a section); the
     joins lie under the varices.  ``colour``: each part painted this plain colour instead.
     ``lumps``: per section, bumps joined to its points by ``gradient_join`` (after its texture
-    or colour, so they keep their own)."""
+    or colour, so they keep their own).  ``age``: the whorl as it was at that fraction of its
+    life (:mod:`blobtree.models.age`): the sections the lip has reached, the newest instance
+    growing, the canal under the last ``canal_sections`` sections before the lip."""
     n, per = spec.sections, spec.instances_per_section
-    canal_sections = spec.canal_sections if canal_sections is None else \
-        _check_int("canal_sections", canal_sections, 0, n)
-    first = n - canal_sections  # the first section with a canal
-    parts = sections(0, spec) + [canal_whorl(per * j, per * j + per - 1, spec)
-                                 for j in range(first, n)]
+    if canal_sections is not None:
+        spec = replace(spec, canal_sections=_check_int("canal_sections", canal_sections, 0, n))
+    growth = Growth(spec, age)
+    plain = generating_surface(False, spec)
+    cone = to_shell_frame(canal_cone(*spec.canal_radii, spec=spec)) if spec.canal_sections \
+        else None
+    points: list[Node] = []
+    canals: dict[int, Node] = {}  # section -> its canal, the canal sections in order
+    for j in range(n):
+        ids = range(per * j, per * j + per)
+        grown_ids = [i for i in ids if growth.size(i)]
+        if not grown_ids:
+            break
+        points.append(_sum([placed(plain, i, growth.size(i), spec) for i in grown_ids]))
+        under = [placed(cone, i, growth.canal(i), spec) for i in ids if growth.canal(i)]
+        if under:
+            canals[j] = _sum(under)
+    m = len(points)
+    slot = {j: m + r for r, j in enumerate(canals)}  # the canal parts follow the points
+    parts = points + list(canals.values())
     if texture is not None:
         wrap = SHELL_TEXTURES["body"].wrap
         mapping = body_mapping(spec, period)
@@ -277,17 +303,16 @@ def body_whorl(canal_sections: int | None = None, spec: ShellSpec = DEFAULT,
     elif colour is not None:
         parts = [s.color(colour) for s in parts]
     if lumps is not None:
-        parts[:n] = [gradient_join(s, list(b)) if b else s
-                     for s, b in zip(parts[:n], lumps, strict=True)]
+        parts[:m] = [gradient_join(s, list(b)) if b else s
+                     for s, b in zip(parts[:m], lumps[:m], strict=True)]
     if len(parts) == 1:
         return parts[0]
 
     def members(j: int) -> tuple[int, ...]:
-        return (j,) if j < first else (j, n + j - first)
+        return (j,) if j not in slot else (j, slot[j])
 
-    groups = [members(i) + members(j) for i, j in blend_pairs(spec)]
-    groups += [(n + i - first, k) for i, j in canal_pairs(spec, canal_sections)
-               for k in (n + j - first, j)]
+    groups = [members(i) + members(j) for i, j in blend_pairs(spec) if j < m]
+    groups += [(slot[i], k) for i, j in _fused(spec, list(canals)) for k in (slot[j], j)]
     return controlled_blend(parts, pairs=[g for g in groups if len(g) == 2],
                             groups=[g for g in groups if len(g) > 2])
 
@@ -306,9 +331,14 @@ def canal_pairs(spec: ShellSpec = DEFAULT, canal_sections: int | None = None
     The points of i and j do not blend: the canal's field is 0 at the outer suture, so the
     suture is Eq. 10's."""
     n = spec.sections
+    return _fused(spec, range(n - (spec.canal_sections if canal_sections is None
+                                   else canal_sections), n))
+
+
+def _fused(spec: ShellSpec, canal: Sequence[int]) -> list[tuple[int, int]]:
+    """``canal_pairs`` among the sections ``canal`` (those with a canal)."""
     if not spec.canal_fuse:
         return []
-    canal = range(n - (spec.canal_sections if canal_sections is None else canal_sections), n)
     return [(i, j) for i in canal for j in canal if j > i + 1]
 
 
@@ -399,38 +429,46 @@ def _shell_varices(spec: ShellSpec) -> list[int]:
             and (varix_row(k, spec) or spec.tori)]
 
 
-def varices(spec: ShellSpec = DEFAULT, texture: np.ndarray | None = None) -> list[Node]:
+def varices(spec: ShellSpec = DEFAULT, texture: np.ndarray | None = None,
+            age: float = 1.0) -> list[Node]:
     """Eq. 13: B_v placed by Eq. 8 at every 116 deg over the joins of the sections, three per
     whorl (21 in all for the Murex; whorl 1's without spines, see the spec), and, with
     ``down_canal``, those of the canal sections continued down the canal
     (``canal_ridge``).  With ``texture`` (Figure 12(b)), field-interpolated on the spines'
-    cones (Section 3.4), the tori and ridges painted in the texture's pale ground colour."""
-    which = _shell_varices(spec)
-    ridges = [canal_ridge(k, spec) for k in which if _on_canal(k, spec)]
+    cones (Section 3.4), the tori and ridges painted in the texture's pale ground colour.
+    ``age``: the varices formed by that fraction of the shell's life, the one forming grown
+    part way (:mod:`blobtree.models.age`), and ridges only where the canal is then."""
+    growth = Growth(spec, age)
+    which = [k for k in _shell_varices(spec) if growth.varix(k)]
+    ridged = [(k, _ridge_size(k, growth)) for k in which] if spec.varices_down_canal else []
+    ridges = [canal_ridge(k, spec, size) for k, size in ridged if size]
     if texture is not None:
         ridges = [r.color(VARIX_PALE) for r in ridges]
-    return [placed_varix(k, spec, texture) for k in which] + ridges
+    return [placed_varix(k, spec, texture, growth.varix(k)) for k in which] + ridges
 
 
-def placed_varix(k: int, spec: ShellSpec = DEFAULT, texture: np.ndarray | None = None) -> Node:
+def placed_varix(k: int, spec: ShellSpec = DEFAULT, texture: np.ndarray | None = None,
+                 size: float = 1.0) -> Node:
     """Eq. 13: varix k (:func:`varix` with ``varix_row``'s spines) placed by Eq. 8 at its
     angle; with ``texture`` (Figure 12(b)), field-interpolated on the spines' cones, the tori
-    painted in the texture's pale ground colour."""
+    painted in the texture's pale ground colour; grown to ``size`` of itself (while it forms,
+    :mod:`blobtree.models.age`)."""
     w, row = whorl_of_varix(k, spec), varix_row(k, spec)
     if texture is None:
         v = varix(w, spec=spec, row=row)
     else:
         wrap = SHELL_TEXTURES["varix_spine"].wrap
         v = varix(w, spec=spec, tori_rgb=VARIX_PALE, row=row).texture(texture, wrap=wrap)
-    return place(v, varix_angle(k, spec), spec.spiral)
+    return placed(v, varix_position(k, spec), size, spec)
 
 
-def _on_canal(k: int, spec: ShellSpec) -> bool:
-    """Whether varix k ends a section with a canal, and the spec continues varices down it."""
-    return spec.varices_down_canal > 0 and k > spec.sections - spec.canal_sections
+def _ridge_size(k: int, growth: Growth) -> float:
+    """How far varix k's ridge down the canal has grown: with the varix, where the section it
+    ends has its canal (the whole shell's last ``canal.sections`` sections)."""
+    return min(growth.varix(k), growth.canal(growth.spec.instances_per_section * k - 1))
 
 
-def canal_ridge(k: int, spec: ShellSpec = DEFAULT) -> Node:
+def canal_ridge(k: int, spec: ShellSpec = DEFAULT, size: float = 1.0) -> Node:
     """Beyond the paper (Section 4: its varices stop short of the canal): varix k continued
     down the canal's outer side as a ridge, the tori of Eq. 12 extended along it.  Each torus
     (major radius m, field radius r about the generating point of field radius point_radius)
@@ -445,15 +483,17 @@ def canal_ridge(k: int, spec: ShellSpec = DEFAULT) -> Node:
     end = start + (tip - start) * reach / length  # the canal's scale where the ridge ends
     ridge = [Cone((0.0, m * start, 0.0), (reach, m * end, 0.0), radius_a=r * start,
                   radius_b=r * end) for m, r in spec.tori]
-    return place(to_shell_frame(along_canal(_sum(ridge), spec)), varix_angle(k, spec),
-                 spec.spiral)
+    return placed(to_shell_frame(along_canal(_sum(ridge), spec)), varix_position(k, spec),
+                  size, spec)
 
 
 def bump_set(row: Sequence[tuple[float, float]], theta: float,
-             rng: np.random.Generator | None = None, spec: ShellSpec = DEFAULT) -> list[Node]:
+             rng: np.random.Generator | None = None, spec: ShellSpec = DEFAULT,
+             size: float = 1.0) -> list[Node]:
     """One set of bumps (Figure 8) at angle theta: a point per second curving spine of a varix
     row (alpha_i, delta_i), scaled by (zeta_x, zeta_y, zeta_z + 0.8), zeta ~ N(s, s/10) (all s
-    without ``rng``), placed like the spines (Eq. 11) and by Eq. 8."""
+    without ``rng``), placed like the spines (Eq. 11) and by Eq. 8; grown to ``size`` of
+    itself (none at 0, their zeta still drawn: :mod:`blobtree.models.age`)."""
     s = spec.bump_size
     out = []
     for alpha, _ in row[::2]:
@@ -464,7 +504,8 @@ def bump_set(row: Sequence[tuple[float, float]], theta: float,
             .translate(spec.bump_offset, 0.0, 0.0)
             .rotate("z", alpha)
         )
-        out.append(place(to_shell_frame(bump), theta, spec.spiral))
+        if size:
+            out.append(place(grown(to_shell_frame(bump), size), theta, spec.spiral))
     return out
 
 
@@ -485,13 +526,15 @@ def gradient_join(section: Node, lumps: list[Node]) -> Node:
 
 
 def bumps(seed: int | np.random.Generator | None = 0, intervals: range | list[int] | None = None,
-          spec: ShellSpec = DEFAULT) -> list[Node]:
+          spec: ShellSpec = DEFAULT, age: float = 1.0) -> list[Node]:
     """Section 3.2: five sets of bumps between varix k and k + 1 (k in ``intervals``, default
     all), evenly spaced over section k: the varices lie 6 instance steps apart, and the sets
     one step apart between them (half-way between the section's instances), a bump per second
     spine of varix k + 1, which ends the section (its whorl's, Table 1); random sizes unless
-    ``seed`` is None."""
+    ``seed`` is None.  ``age``: those the lip has passed by that fraction of the shell's life,
+    the newest growing (:mod:`blobtree.models.age`; the sizes drawn are the same at any age)."""
     rng = None if seed is None else _rng(seed)
+    growth = Growth(spec, age)
     ks = range(1, spec.sections) if intervals is None else intervals
     per, sets = spec.instances_per_section, spec.bump_sets
     out = []
@@ -500,7 +543,7 @@ def bumps(seed: int | np.random.Generator | None = 0, intervals: range | list[in
         row = varix_row(k + 1, spec)
         for m in range(sets):
             at = per * k - 0.5 + (m + 1) * per / (sets + 1)
-            out += bump_set(row, instance_angle(at, spec), rng, spec)
+            out += bump_set(row, instance_angle(at, spec), rng, spec, growth.size(at))
     return out
 
 
@@ -559,23 +602,24 @@ def canal_spine_frames(row: int, spec: ShellSpec = DEFAULT) -> list[tuple[np.nda
 
 
 def canal_spines(seed: int | np.random.Generator | None = 0,
-                 spec: ShellSpec = DEFAULT) -> list[Node]:
+                 spec: ShellSpec = DEFAULT, age: float = 1.0) -> list[Node]:
     """Section 3.2, Table 2, Figure 9: axial rows of spines on the canal, below the last
     varices (three for the Murex), placed by Eq. 8 at their angles; straight when ``seed`` is
-    None."""
+    None.  ``age``: under the last varices formed by that fraction of the shell's life
+    (:mod:`blobtree.models.age`): Table 2's rows repeat along the spiral, so each varix keeps
+    the row it formed with (the whole shell's last varices have rows 1, 2, 3 in order)."""
     if not spec.canal_sections or not spec.table_2:
         return []
     rng = None if seed is None else _rng(seed)
-    rows = len(spec.table_2)
-    out = []
-    for row, sizes in enumerate(spec.table_2, 1):
-        theta = varix_angle(spec.sections - rows + row, spec)
-        for size, (base, direction) in zip(sizes, canal_spine_frames(row, spec), strict=True):
-            local = canal_spine(size, rng, spec).rotate("z", direction).translate(
-                base[0], base[1], 0.0
-            )
-            out.append(place(to_shell_frame(local), theta, spec.spiral))
-    return out
+    growth = Growth(spec, age)
+    n, rows = spec.sections, len(spec.table_2)
+    spines = [[to_shell_frame(canal_spine(size, rng, spec).rotate("z", direction).translate(
+        base[0], base[1], 0.0))
+        for size, (base, direction) in zip(sizes, canal_spine_frames(row, spec), strict=True)]
+        for row, sizes in enumerate(spec.table_2, 1)]
+    return [placed(local, varix_position(k, spec), growth.canal_spines(k), spec)
+            for k in range(1, n + 1) if growth.canal_spines(k)
+            for local in spines[(k - (n - rows) - 1) % rows]]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -610,37 +654,47 @@ def inside_generating_surface(spec: ShellSpec = DEFAULT) -> Node:
     return _sum([generating_point(spec.inside_scale * spec.point_radius, spec), *parts])
 
 
-def inside_whorl(spec: ShellSpec = DEFAULT) -> Node:
-    """B_inside of Eq. 14 (Figure 10 centre): the whorl of the inside generating surface."""
+def inside_whorl(spec: ShellSpec = DEFAULT, age: float = 1.0) -> Node:
+    """B_inside of Eq. 14 (Figure 10 centre): the whorl of the inside generating surface;
+    ``age``: behind the lip at that fraction of the shell's life (moved along the spiral with
+    it, :attr:`Growth.shift <blobtree.models.age.Growth.shift>`), as are the other parts of
+    the opening."""
     a, b = spec.inside_instances
-    return whorl(a, b, inside_generating_surface(spec), spec)
+    return whorl(a, b, inside_generating_surface(spec), spec, Growth(spec, age).shift)
 
 
-def previous_whorl(spec: ShellSpec = DEFAULT) -> Node:
+def previous_whorl(spec: ShellSpec = DEFAULT, age: float = 1.0) -> Node:
     """B_w 94..108 of Eq. 14 as the body builds it: Eq. 9's sum of those instances of the
     body's generating surface, with the canal on the instances of the sections that have one
-    (from instance 102 for the Murex), so that the opening cuts nothing of it."""
+    (from instance 102 for the Murex), so that the opening cuts nothing of it; ``age`` as for
+    :func:`inside_whorl`."""
     a, b = spec.previous_whorl
+    shift = Growth(spec, age).shift
     canal_from = spec.instances_per_section * (spec.sections - spec.canal_sections)
     plain = generating_surface(False, spec)
     with_canal = generating_surface(True, spec) if spec.canal_sections else plain
-    return _sum([place(with_canal if i >= canal_from else plain, instance_angle(i, spec),
+    return _sum([place(with_canal if i >= canal_from else plain, instance_angle(i + shift, spec),
                        spec.spiral) for i in range(a, b + 1)])
 
 
-def opening(spec: ShellSpec = DEFAULT) -> Node:
+def opening(spec: ShellSpec = DEFAULT, age: float = 1.0) -> Node:
     """Eq. 14: B_opening = B_inside - B_w 94..108 (Figure 10 right): the previous whorl is kept
-    (the difference rounded by ``opening.cut_smooth``, see :func:`shell`)."""
-    return difference(inside_whorl(spec), previous_whorl(spec), smooth=spec.cut_smooth)
+    (the difference rounded by ``opening.cut_smooth``, see :func:`shell`); ``age``: at the lip
+    of that fraction of the shell's life (:func:`inside_whorl`)."""
+    return difference(inside_whorl(spec, age), previous_whorl(spec, age),
+                      smooth=spec.cut_smooth)
 
 
-def inside_wall(spec: ShellSpec = DEFAULT) -> Node:
+def inside_wall(spec: ShellSpec = DEFAULT, age: float = 1.0) -> Node:
     """B_inside_wall of Eq. 15 (Figure 11 right): a wall around the round hollow of the inside
-    point, up to the last instance, that refills what the extension cones cut."""
+    point, up to the last instance, that refills what the extension cones cut; ``age``: up to
+    the lip of that fraction of the shell's life (:func:`inside_whorl`)."""
     a, b = spec.inside_instances
+    shift = Growth(spec, age).shift
     wall = whorl(a, spec.instances - 1, generating_point(spec.wall_scale * spec.point_radius,
-                                                          spec), spec)
-    hollow = whorl(a, b, generating_point(spec.inside_scale * spec.point_radius, spec), spec)
+                                                          spec), spec, shift)
+    hollow = whorl(a, b, generating_point(spec.inside_scale * spec.point_radius, spec), spec,
+                   shift)
     return difference(wall, hollow, smooth=spec.cut_smooth)
 
 
@@ -668,7 +722,8 @@ def _pattern_texture(name: str, seed: int, spec: ShellSpec, cells: int = 512) ->
     return np.round(np.clip(image.transpose(1, 0, 2), 0.0, 1.0) * 255.0).astype(np.uint8)
 
 
-def outer_shell(seed: int = 0, spec: ShellSpec = DEFAULT, textured: bool = True) -> Node:
+def outer_shell(seed: int = 0, spec: ShellSpec = DEFAULT, textured: bool = True,
+                age: float = 1.0) -> Node:
     """B_shell of Eq. 15: the main body whorl with its varices and canal spines blended in, and
     the bumps joined by the super-elliptic blend n = 400 (Section 3.2), or with ``bumps.join =
     "gradient"`` each section's bumps joined to it by the gradient-based blend (ours,
@@ -677,7 +732,8 @@ def outer_shell(seed: int = 0, spec: ShellSpec = DEFAULT, textured: bool = True)
     ``textured``: the spec's look: the four textures of Figure 12 (generated from ``seed``) by
     the paper's two methods (Section 3.4): (a) per section by a bounding surface, (b)-(d) on the
     varix spines, bumps and canal spines, field-interpolated; or a grown pigment pattern on the
-    body; otherwise plain colours.  The geometry is the same either way."""
+    body; otherwise plain colours.  The geometry is the same either way.  ``age``: as it was at
+    that fraction of its life (:mod:`blobtree.models.age`; the same draws from ``seed``)."""
     bump_seq, spine_seq = np.random.SeedSequence(_check_int("seed", seed, 0, 2**63 - 1)).spawn(2)
     bump_rng, spine_rng = np.random.default_rng(bump_seq), np.random.default_rng(spine_seq)
     body_c, varix_c, bump_c, _ = spec.colours
@@ -689,29 +745,30 @@ def outer_shell(seed: int = 0, spec: ShellSpec = DEFAULT, textured: bool = True)
             b.color(bump_c)
 
     if spec.bump_join == "gradient":  # per section: none on section 0 (bumps() starts at 1)
-        per_section = [[]] + [[paint_bump(b) for b in bumps(bump_rng, [k], spec)]
+        per_section = [[]] + [[paint_bump(b) for b in bumps(bump_rng, [k], spec, age)]
                               for k in range(1, spec.sections)]
         lumps = []
     else:
-        per_section, lumps = None, [paint_bump(b) for b in bumps(bump_rng, spec=spec)]
+        per_section, lumps = None, [paint_bump(b) for b in bumps(bump_rng, spec=spec, age=age)]
+    spines = canal_spines(spine_rng, spec, age)
     if tex:
-        body = body_whorl(spec=spec, texture=tex["body"], lumps=per_section)
+        body = body_whorl(spec=spec, texture=tex["body"], lumps=per_section, age=age)
         canal_wrap = SHELL_TEXTURES["canal_spine"].wrap
-        spiny = varices(spec, tex["varix_spine"]) + [
-            s.texture(tex["canal_spine"], wrap=canal_wrap) for s in canal_spines(spine_rng, spec)]
+        spiny = varices(spec, tex["varix_spine"], age) + [
+            s.texture(tex["canal_spine"], wrap=canal_wrap) for s in spines]
     else:
         if look == "plain":
-            body = body_whorl(spec=spec, colour=body_c, lumps=per_section)
+            body = body_whorl(spec=spec, colour=body_c, lumps=per_section, age=age)
         else:
             body = body_whorl(spec=spec, texture=_pattern_texture(look, seed, spec),
-                              period=spec.instances * spec.theta_s, lumps=per_section)
-        spiny = [v.color(varix_c) for v in varices(spec) + canal_spines(spine_rng, spec)]
+                              period=spec.instances * spec.theta_s, lumps=per_section, age=age)
+        spiny = [v.color(varix_c) for v in varices(spec, age=age) + spines]
     main = blend(body, *spiny) if spiny else body
     return super_blend(main, *lumps, n=spec.bump_blend_n) if lumps else main
 
 
 def shell(spec: ShellSpec | Mapping | str | Path = "murex", seed: int = 0, inside: bool = True,
-          textured: bool = True) -> Node:
+          textured: bool = True, age: float | None = None) -> Node:
     """A whole shell from its spec (Eq. 15 for the Murex), by ``opening.wall_join``:
     'union', the paper's B = (B_shell - B_opening) U B_inside_wall, or 'clipped' (the shipped
     specs'), B = B_shell - (B_opening - B_inside_wall).
@@ -742,13 +799,19 @@ def shell(spec: ShellSpec | Mapping | str | Path = "murex", seed: int = 0, insid
     spec file, or its parsed data.  ``seed`` drives the bump sizes, canal spine bends and
     textures; ``inside=False`` stops at Eq. 14 (no inside wall, Figure 11 left);
     ``textured=False`` paints the parts in the spec's plain colours (the inside stays plain
-    either way)."""
+    either way).
+
+    ``age``: the shell as it was at that fraction of its life, in [0, 1] (None or 1: the whole
+    shell; :mod:`blobtree.models.age`): its lip where it stood then, the opening carved there
+    (Eqs. 14-15), the canal under the last sections before it, the varices formed and the bumps
+    passed by then, the newest part growing.  Its volume never falls as ``age`` rises."""
     spec = load_spec(spec)
+    age = 1.0 if age is None else Growth(spec, age).age
     inside_c = spec.colours[3]
-    carved = outer_shell(seed, spec, textured)
+    carved = outer_shell(seed, spec, textured, age)
     if spec.opening:
-        hole = opening(spec).color(inside_c)
-        wall = inside_wall(spec).color(inside_c) if inside else None
+        hole = opening(spec, age).color(inside_c)
+        wall = inside_wall(spec, age).color(inside_c) if inside else None
         if wall is not None and spec.wall_join == "clipped":
             hole = difference(hole, wall, smooth=spec.cut_smooth)
         carved = difference(carved, hole, smooth=spec.lip_smooth)
@@ -758,8 +821,9 @@ def shell(spec: ShellSpec | Mapping | str | Path = "murex", seed: int = 0, insid
 
 
 def murex(seed: int = 0, inside: bool = True, textured: bool = True, pattern: str | None = None,
-          **choices: object) -> Node:
-    """The whole Murex cabritii shell (Figure 14), Eq. 15, ``shell(SHELLS["murex"])``.
+          age: float | None = None, **choices: object) -> Node:
+    """The whole Murex cabritii shell (Figure 14), Eq. 15, ``shell(SHELLS["murex"])``, or at an
+    ``age`` (:func:`shell`).
 
     ``pattern``: a pigment pattern of ``bt.texture.PATTERNS`` grown on the body instead of the
     paper's texture (only colours change); keyword arguments override fields of the spec
@@ -771,4 +835,4 @@ def murex(seed: int = 0, inside: bool = True, textured: bool = True, pattern: st
     spec = replace(DEFAULT, **choices)
     if pattern is not None:
         spec = replace(spec, texture=pattern)
-    return shell(spec, seed, inside=inside, textured=textured)
+    return shell(spec, seed, inside=inside, textured=textured, age=age)
