@@ -103,3 +103,25 @@ def test_a_first_run_compiles_within_its_budget(tmp_path):
         assert unexplained == [], f"blobtree {' '.join(args)} compiles {unexplained}: say why"
         assert len(names) <= budget, (f"blobtree {' '.join(args)} compiled {len(names)} "
                                       f"signatures, its budget is {budget}")
+
+
+@pytest.mark.slow
+def test_a_cache_missing_a_walk_compiles_what_calls_it(tmp_path):
+    """Kernels call the walks by symbol: with a walk's cached code gone (a cache cleared in
+    part), the kernels that call it are compiled again rather than loaded with a call to
+    nothing, and the picture is the same."""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache"), "PYTHONPATH": str(ROOT)}
+
+    def render(name: str) -> bytes:
+        run = subprocess.run([sys.executable, "-m", "blobtree.cli.main", "render", "whorl126",
+                              "--size", "32x32", "-o", name], capture_output=True, text=True,
+                             env=env, cwd=tmp_path)
+        assert run.returncode == 0, run.stderr[-2000:]
+        return (tmp_path / name).read_bytes()
+
+    first = render("first.png")
+    gone = list((tmp_path / "cache").glob("*/walk.walk_point-*"))
+    assert gone  # the point walk was cached on its own
+    for path in gone:
+        path.unlink()
+    assert render("again.png") == first

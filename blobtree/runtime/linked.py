@@ -9,15 +9,15 @@ through an external symbol (numba's ``intrinsic``: a declaration and a call), wh
 resolves to that function's address (``llvmlite.binding.add_symbol``), in every run, whether
 the caller was compiled now or loaded from the cache.
 
-Before any kernel is loaded from the cache, the walks already in the cache are loaded and their
-symbols registered (:func:`register_cached`); a walk not yet compiled is compiled when the first
-kernel calling it is (its call is typed).  The walks are cached like every kernel, keyed on the
-whole engine (``jit.engine_key``).
+Before a kernel is loaded from the cache, the walks its code calls are loaded and their symbols
+registered (:func:`register_cached`); if one is missing from the cache, the kernel is compiled
+instead of loaded (a call to a symbol never registered would jump to nothing).  A walk not yet
+compiled is compiled when the first kernel calling it is (its call is typed).  The walks are
+cached like every kernel, keyed on the whole engine (``jit.engine_key``).
 """
 
 from __future__ import annotations
 
-import threading
 from collections.abc import Callable
 
 import llvmlite.binding as llvm
@@ -29,7 +29,6 @@ from numba.extending import intrinsic
 
 #: Every linked kernel, in the order they were made.
 LINKED: list[Linked] = []
-_state = threading.local()
 
 
 class Linked:
@@ -115,14 +114,9 @@ def _intrinsic(target: Linked):
     return intrinsic(namespace[target.py_func.__name__])
 
 
-def register_cached() -> None:
-    """Register every linked kernel already in the cache (before a kernel that may call them
-    is loaded from it); compile none."""
-    if getattr(_state, "busy", False):
-        return
-    _state.busy = True
-    try:
-        for target in LINKED:
-            target.ensure(compile=False)
-    finally:
-        _state.busy = False
+def register_cached(code: bytes) -> bool:
+    """Register the linked kernels that the object ``code`` of a kernel in the cache names (its
+    calls to them), loading them from the cache, before that kernel is loaded; compile none.
+    Whether all of them are registered."""
+    return all(target.ensure(compile=False) for target in LINKED
+               if target.symbol.encode() in code)
