@@ -270,8 +270,8 @@ def _specialised(prog, lo, hi):
 
     n = len(prog)
     oc, ob, ol = np.empty((n, 4), dtype=np.int64), np.empty((n, 6)), np.empty(n)
-    m = S.specialize(prog.code, prog.params, prog.boxes, prog.lips, np.asarray(lo, float),
-                     np.asarray(hi, float), oc, ob, ol, S.specialize_work(prog.code))
+    m = S.specialize(prog.arrays, np.asarray(lo, float), np.asarray(hi, float), (oc, ob, ol),
+                     S.specialize_work(prog.code))
     return oc[:m], ob[:m]
 
 
@@ -287,7 +287,7 @@ def test_specialisation_drops_what_only_an_outer_box_reaches():
     """A ball whose box, not whose support, reaches the region's corner, and a bent cone turned
     45 degrees whose outer box, not its own frame's, holds the region, are dropped; points there
     still evaluate as the reference says (0 from both)."""
-    from blobtree.engine import interp
+    from blobtree.engine import point
     from blobtree.engine.dispatch import OP_ZERO
 
     ball = bt.Point(radius=1.0)
@@ -302,8 +302,9 @@ def test_specialisation_drops_what_only_an_outer_box_reaches():
         assert len(code) == 1 and code[0, 0] == OP_ZERO
         P = np.random.default_rng(0).uniform(lo, hi, (200, 3))
         assert np.all(tree.reference(P)[0] == 0.0)
-        vs, ps = interp.scratch(prog.depth)
-        assert all(interp.eval_point(code, prog.params, boxes, *p, 0, vs, ps) == 0.0 for p in P)
+        st = point.scratch(prog.depth)
+        local = (code, prog.params, boxes, np.zeros(len(code)))
+        assert all(point.point_walk(local, (*p, 0), st) == 0.0 for p in P)
         # a region around a point where the field is not 0 keeps the primitive
         Q = sample_points(tree, 2000, 1)
         near = Q[np.argmax(tree.reference(Q)[0])]
@@ -333,7 +334,8 @@ def test_segment_lipschitz_bounds_hold_on_random_trees(tree, seed, frac):
     """The bound along a segment (directional for point primitives) bounds how fast the field
     rises along it, grad f . d, and the field stays on its side of 0.5 as far along it as the
     distances say."""
-    from blobtree.engine import interp as K
+    from blobtree.engine import bounds as K
+    from blobtree.engine.point import scratch
 
     prog = tree.program()
     lo, hi = tree.bounds()
@@ -344,14 +346,13 @@ def test_segment_lipschitz_bounds_hold_on_random_trees(tree, seed, frac):
     dirs = rng.normal(size=(30, 3))
     dirs /= np.linalg.norm(dirs, axis=1)[:, None]
     length = frac * float(np.linalg.norm(hi - lo)) + 1e-3
-    vs, ps = K.scratch(prog.depth)
-    code, params, boxes, lips = prog.arrays
+    st = scratch(prog.depth)
     for o, d in zip(starts, dirs, strict=True):
         ts = np.linspace(0.0, length, 200)
         fq, gq, _ = tree.reference(o + ts[:, None] * d)
         for values in (True, False):  # the value-aware pass and the plain one
-            f, bound, below, above = K.lipschitz_segment(code, params, boxes, lips, *o, *d,
-                                                         length, values, vs, ps)
+            f, bound, below, above = K.lipschitz_segment(prog.arrays, tuple(o), tuple(d), length,
+                                                         values, st)
             np.testing.assert_allclose(f, fq[0], rtol=1e-9, atol=1e-12)
             assert (gq @ d).max() <= bound * (1 + 1e-9) + 1e-12
             assert np.all(fq[ts < below * (1 - 1e-9)] <= 0.5 + 1e-12)
@@ -372,12 +373,12 @@ def test_rise_bounds_hold_along_cones_on_random_trees(tree, seed, frac, width):
     directions (``bound_box_at`` with a spread, the packet tracer's) are at least grad f . d at
     points of the box for directions d of the cone, never above the pass's bound without the
     cone, and the field stays below 0.5 along those directions as far as they say."""
-    from blobtree.engine import interp as K
+    from blobtree.engine import bounds as K
 
     setup = box_bounds_setup(tree, seed, frac)
     if setup is None:
         return
-    (code, params, boxes, lips), (vs, ps), rng, size = setup
+    arrays, st, rng, size = setup
     for corner in sample_points(tree, 20, seed):
         axis = rng.normal(size=3)
         axis /= np.linalg.norm(axis)
@@ -388,10 +389,8 @@ def test_rise_bounds_hold_along_cones_on_random_trees(tree, seed, frac, width):
         slope = max(np.einsum("ij,ij->i", g, D).max(), (g @ axis).max())
         box = (*corner, *(corner + size))
         for values in (True, False):
-            plain = K.bound_box_at(code, params, boxes, lips, *box, *x, *axis, -1.0, values, vs,
-                                   ps)[1]
-            f, rise, below, _ = K.bound_box_at(code, params, boxes, lips, *box, *x, *axis,
-                                               spread, values, vs, ps)
+            plain = K.bound_box_at(arrays, box, tuple(x), (*axis, -1.0), values, st)[1]
+            f, rise, below, _ = K.bound_box_at(arrays, box, tuple(x), (*axis, spread), values, st)
             assert slope <= rise * (1 + 1e-9) + 1e-12 and rise <= plain
             s = rng.uniform(0.0, 1.0, 300) * min(below, float(np.linalg.norm(size)))
             P = x + s[:, None] * D
@@ -401,14 +400,14 @@ def test_rise_bounds_hold_along_cones_on_random_trees(tree, seed, frac, width):
 
 def _rise(tree, box, d, values, spread=0.0):
     """Both bound passes' rise over the box along unit direction d (and the cone about it)."""
-    from blobtree.engine import interp as K
+    from blobtree.engine import bounds as K
+    from blobtree.engine.point import scratch
 
     prog = tree.program()
-    code, params, boxes, lips = prog.arrays
-    vs, ps = K.scratch(prog.depth)
     centre = 0.5 * (np.array(box[:3]) + np.array(box[3:]))
-    return K.bound_box_at(code, params, boxes, lips, *box, *centre, *d, spread, values, vs,
-                          ps)[1]
+    return K.bound_box_at(prog.arrays, tuple(float(v) for v in box), tuple(centre),
+                          (*(float(v) for v in d), float(spread)), values,
+                          scratch(prog.depth))[1]
 
 
 def test_rays_leaving_a_blend_of_points_are_bounded_by_nothing_it_falls_from():
@@ -446,21 +445,21 @@ def test_point_directional_bound_is_the_largest_slope(falloff, radius, seed):
     """For a lone (scaled, rotated) point primitive the segment bound is |df/dt|'s maximum along
     the segment itself: at least every sampled slope, and within 1% of the largest; the rise
     bound (what the tracer steps by) is at least every sampled df/dt and at most that."""
-    from blobtree.engine import interp as K
+    from blobtree.engine import bounds as K
+    from blobtree.engine.point import scratch
 
     tree = bt.Point(radius=radius, falloff=falloff).scale(1.0, 0.7, 1.3).rotate((1, 2, 3), 40)
     prog = tree.program()
     rng = np.random.default_rng(seed)
-    code, params, boxes, lips = prog.arrays
-    vs, _ = K.scratch(prog.depth)
+    st = scratch(prog.depth)
     for _ in range(20):
         o = rng.uniform(-1.5, 1.5, 3) * radius
         d = rng.normal(size=3)
         d /= np.linalg.norm(d)
         length = rng.uniform(0.05, 3.0) * radius
         e = o + length * d
-        bound, rise = K._lipschitz(code, params, boxes, lips, *np.minimum(o, e),
-                                   *np.maximum(o, e), True, *o, *d, length, 0.0, vs)
+        bound, rise = K.lipschitz_walk(prog.arrays, (*np.minimum(o, e), *np.maximum(o, e), *o,
+                                                     *d, length, 0.0, 1.0), st)
         Q = o + np.linspace(0.0, length, 4001)[:, None] * d
         slopes = tree.reference(Q)[1] @ d
         slope = np.abs(slopes).max()

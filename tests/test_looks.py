@@ -69,7 +69,6 @@ def _occlusion_at(tree, points: np.ndarray, radius: float) -> np.ndarray:
     from blobtree.render import shade
 
     prog = tree.program()
-    code, params, boxes, lips = prog.arrays
     lo, hi = (np.asarray(b, dtype=float) for b in prog.bounds)
     n = len(points)
     g = prog.gradient(points)
@@ -82,9 +81,11 @@ def _occlusion_at(tree, points: np.ndarray, radius: float) -> np.ndarray:
     look = np.zeros(7)
     look[shade.OCCLUSION_RADIUS] = radius
     hits = (np.empty(BATCH, dtype=np.int64), np.empty((n, shade.OCCLUSION_SAMPLES)))
-    shade._occlusions(code, params, boxes, (code, boxes, lips), lo, hi, n, rays, points - D, D,
-                      look, surf, hits, point_rows(prog.depth), value_rows(prog.depth),
-                      np.empty((prog.depth, 7)))
+    rows = (point_rows(prog.depth), value_rows(prog.depth), np.empty((prog.depth, 7)))
+    none = np.empty((0, 3))  # (what occlusion does not read)
+    packet = (none, rays, points - D, D, none, none, surf, none, np.empty((0, 3), dtype=np.int64),
+              rows, None, hits)
+    shade._occlusions(prog.arrays, (prog.arrays, lo, hi), n, look, packet)
     return surf[:, shade.OCC]
 
 

@@ -80,20 +80,21 @@ def test_csg_bound_drops_the_child_that_cannot_set_the_field(tree):
     """Over small boxes, the bound that knows the field at a point of the box (the ray
     tracer's) holds, is never above the plain rule (max or sum of the children's bounds), and
     is below it wherever the child with the larger bound cannot win anywhere in the box."""
-    from blobtree.engine import interp as K
+    from blobtree.engine import bounds as K
+    from blobtree.engine.point import scratch
 
     prog = tree.program()
-    code, params, boxes, lips = prog.arrays
-    vs, ps = K.scratch(prog.depth)
+    st = scratch(prog.depth)
     rng = np.random.default_rng(7)
     lower = further = 0
     both = rng.uniform(-1.0, 1.2, (20000, 3))  # box centres where both children have a field
     both = both[(_A.field(both) > 0.0) & (_B.field(both) > 0.0)][:300]
     for c in both:
         e = rng.uniform(0.002, 0.05, 3)
-        rule = K.lipschitz_box(code, params, boxes, lips, *(c - e), *(c + e), vs)
-        f, bound, below, above = K.bound_box_at(code, params, boxes, lips, *(c - e), *(c + e),
-                                                *c, 0.0, 0.0, 0.0, -1.0, True, vs, ps)
+        box = (*(c - e), *(c + e))
+        rule = K.lipschitz_box(prog.arrays, box, st)
+        f, bound, below, above = K.bound_box_at(prog.arrays, box, tuple(c), (0.0, 0.0, 0.0, -1.0),
+                                                True, st)
         P = c + rng.uniform(-1.0, 1.0, (400, 3)) * e
         fp, gp, _ = prog.evaluate(P)
         assert np.linalg.norm(gp, axis=1).max() <= bound * (1 + 1e-9) + 1e-12

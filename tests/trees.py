@@ -96,13 +96,13 @@ def sample_points(tree: bt.Node, n: int, seed: int, grow: float = 0.2) -> np.nda
 def box_bounds_setup(tree: bt.Node, seed: int, frac: float):
     """(The tree's program arrays, bound scratch, a generator, the size of boxes ``frac`` of
     its extent) for sampling bounds over boxes; None for an empty tree."""
-    from blobtree.engine import interp as K
+    from blobtree.engine.point import scratch
 
     prog = tree.program()
     lo, hi = tree.bounds()
     if np.any(lo > hi):
         return None
-    return (prog.arrays, K.scratch(prog.depth), np.random.default_rng(seed),
+    return (prog.arrays, scratch(prog.depth), np.random.default_rng(seed),
             frac * (hi - lo) + 1e-3)
 
 
@@ -111,21 +111,20 @@ def check_box_bounds(tree: bt.Node, seed: int, frac: float, count: int) -> None:
     passes of ``bound_box_at`` (value-aware and plain) give the reference's field at a point of
     the box, bound every gradient sampled in it, and keep the field on its side of 0.5 within
     the distances they give."""
-    from blobtree.engine import interp as K
+    from blobtree.engine import bounds as K
 
     setup = box_bounds_setup(tree, seed, frac)
     if setup is None:
         return
-    (code, params, boxes, lips), (vs, ps), rng, size = setup
+    arrays, st, rng, size = setup
     for corner in sample_points(tree, count, seed):
         x = rng.uniform(corner, corner + size)
         Q = rng.uniform(corner, corner + size, (200, 3))
         fq, gq, _ = tree.reference(Q)
         distance = np.linalg.norm(Q - x, axis=1)
         for values in (True, False):
-            f, bound, below, above = K.bound_box_at(code, params, boxes, lips, *corner,
-                                                    *(corner + size), *x, 0.0, 0.0, 0.0, -1.0,
-                                                    values, vs, ps)
+            f, bound, below, above = K.bound_box_at(arrays, (*corner, *(corner + size)),
+                                                    tuple(x), (0.0, 0.0, 0.0, -1.0), values, st)
             np.testing.assert_allclose(f, tree.reference(x[None])[0][0], rtol=1e-9,
                                        atol=1e-12)
             assert np.linalg.norm(gq, axis=1).max() <= bound * (1 + 1e-9) + 1e-12

@@ -1,8 +1,9 @@
 """The compiled engine: a tree flattened into a program that numba kernels evaluate.
 
 ``dispatch`` derives opcodes and one dispatcher per kind of kernel from the node registry;
-``program`` compiles trees; ``interp`` runs a program at a point; ``specialize`` shortens it to a
-region; ``batch`` evaluates large batches cell by cell.  Importing the engine installs its
+``program`` compiles trees; ``walk`` is the one program walk, which ``point`` runs at a point,
+``bounds`` over a region and ``batch`` over batches of points (cell by cell); ``specialize``
+shortens a program to a region.  Importing the engine installs its
 compiler for ``Node.program()``.
 """
 

@@ -11,17 +11,18 @@ vectorises them (numpy's error model: no division checks inside them).
 The value stack holds one row of ``BATCH`` values per entry.  A box test (BOX, PUSHPT, warps) skips
 its subtree only when no point of the batch is inside; the other points of the batch then
 evaluate the subtree exactly (a node's field is 0 outside its box), so the results equal
-``eval_point``'s.  Gradients and colours (:func:`eval_rows_full`) run ``eval_point``'s own steps
-point by point inside each instruction: each instruction's dispatch then serves the batch.
+``eval_point``'s (the ``rows`` mode of the program walk).  Gradients and colours run the point
+mode's own steps point by point inside each instruction (the ``lanes`` mode): each instruction's
+dispatch then serves the batch.
 """
 
 from __future__ import annotations
 
 import numpy as np
+from numba import types
 
 from ..nodes import kernel_math
 from ..nodes.layout import (
-    ARG,
     COLOR,
     FALLOFF,
     FIELD,
@@ -32,37 +33,24 @@ from ..nodes.layout import (
     RESULT_COLUMNS,
     ROWS_SCRATCH,
     SHADE,
-    SKIP,
 )
-from ..runtime.jit import kernel
+from ..runtime.jit import kernel, linked
 from ..runtime.threads import parallel_for, threads
-from .dispatch import (
-    K_BOX,
-    K_OPERATOR,
-    K_PAINT,
-    K_POPPT,
-    K_PRIMITIVE,
-    K_PUSHPT,
-    K_WARP,
-    K_ZERO,
-    combine_rows,
-    kind_of,
-    prim_rows,
-    warp_rows,
-)
-from .interp import (
+from .dispatch import combine, combine_rows, prim_rows, warp_rows
+from .point import (
     DEFAULT_GREY,
+    PROGRAM,
     apply_warp,
-    combine,
     nan_point,
     outside,
-    paint_top,
+    point_paint,
+    point_primitive,
     pop_frame,
     push_frame,
-    push_primitive,
     push_zero,
 )
 from .specialize import Grid, Regions, cell_of
+from .walk import Mode, hook, walk
 
 #: Points per batch (the length of a value-stack row).
 BATCH = 64
@@ -81,7 +69,7 @@ W = 8
 def _span(pts, nb):
     """Lanes LOWEST and HIGHEST of the batch's points (level 0 of pts): each coordinate's least
     and greatest over the nb points (-inf and inf where one is NaN: a NaN point is inside every
-    box, as for ``interp.outside``)."""
+    box, as for ``point.outside``)."""
     for r in range(3):
         lo, hi = np.inf, -np.inf
         nan = False
@@ -133,65 +121,179 @@ def _push_rows(p, o, pts, pp, nb):
 
 @kernel(nrt=True)
 def value_rows(depth):
-    """The value stack of :func:`eval_rows`: depth rows of BATCH values, and ``ROWS_SCRATCH``
+    """The value stack of :data:`eval_rows`: depth rows of BATCH values, and ``ROWS_SCRATCH``
     more for operators' batch kernels."""
     return np.empty((depth + ROWS_SCRATCH, BATCH))
 
 
 @kernel(nrt=True)
 def point_rows(depth):
-    """The point stack of :func:`eval_rows`: for each of depth + 1 frames, rows x, y, z of BATCH
+    """The point stack of :data:`eval_rows`: for each of depth + 1 frames, rows x, y, z of BATCH
     points and two lanes more (LOWEST and HIGHEST)."""
     return np.zeros((depth + 1, 3, BATCH + 2))
 
 
-@kernel
-def eval_rows(code, params, boxes, a, b, pts, nb, vs, tmp):
-    """Run the program in rows a:b of code and boxes (skip targets relative to a) on the nb
-    points pts[0, :, :nb] (rows x, y, z); the field is left in vs[0, :nb].  pts
-    (:func:`point_rows`) is the point stack of warps, vs (:func:`value_rows`) the value stack,
-    tmp (depth, RESULT_COLUMNS) scratch for operators without a batch kernel."""
-    n = b - a
-    nw = (nb + W - 1) // W * W
-    p = params
-    sp = 0
-    pp = 0
-    i = 0
-    _span(pts, nb)
-    while i < n:
-        op = code[a + i, OP]
-        o = code[a + i, OFFSET]
-        kind = kind_of(op)
-        if kind == K_PRIMITIVE:
-            prim_rows(op, int(p[o + FALLOFF]), p, o, pts, pp, vs, sp, nw)
-            sp += 1
-            i += 1
-        elif kind == K_OPERATOR:
-            k = code[a + i, ARG]
-            combine_rows(op, vs, sp - k, k, p, o, nw, tmp)
-            sp += 1 - k
-            i += 1
-        elif kind == K_BOX or kind == K_PUSHPT or kind == K_WARP:
-            if not _any_inside(boxes, a + i, pts, pp, nb):
-                _zero_row(vs, sp, nw)
-                sp += 1
-                i = code[a + i, SKIP]
-                continue
-            if kind == K_PUSHPT:  # the warp's frame: an affine map of the current points
-                _push_rows(p, o, pts, pp, nb)
-                pp += 1
-            elif kind == K_WARP:
-                warp_rows(op, p, o, pts, pp, nb)
-            i += 1
-        elif kind == K_POPPT:
-            pp -= 1
-            i += 1
-        elif kind == K_ZERO:
-            _zero_row(vs, sp, nw)
-            sp += 1
-            i += 1
-        else:  # K_PAINT: colours play no part in the field
-            i += 1
+@kernel(inline="always")
+def _lanes(nb):
+    """The lanes a row computes for nb points: whole groups of W."""
+    return (nb + W - 1) // W * W
+
+
+# ----- the rows mode: at = nb points, st = (pts, vs, tmp), cur = the lanes computed ------------
+@hook
+def _r_start(prog, at, st):
+    _span(st[0], at)
+    return _lanes(at)
+
+
+@hook
+def _r_primitive(prog, at, i, cur, pp, st, sp):
+    code, p = prog[0], prog[1]
+    o = code[i, OFFSET]
+    prim_rows(code[i, OP], int(p[o + FALLOFF]), p, o, st[0], pp, st[1], sp, cur)
+
+
+@hook
+def _r_operator(prog, at, i, cur, st, b, k):
+    code = prog[0]
+    combine_rows(code[i, OP], st[1], b, k, prog[1], code[i, OFFSET], cur, st[2])
+
+
+@hook
+def _r_misses(prog, at, i, cur, pp, st):
+    return not _any_inside(prog[2], i, st[0], pp, at)
+
+
+@hook
+def _r_zero(at, st, sp):
+    _zero_row(st[1], sp, _lanes(at))
+
+
+@hook
+def _r_enter(prog, at, i, cur, st, pp):
+    """The warp's frame: an affine map of the points one level up."""
+    _push_rows(prog[1], prog[0][i, OFFSET], st[0], pp - 1, at)
+    return cur
+
+
+@hook
+def _r_warp(prog, at, i, cur, st, pp):
+    code = prog[0]
+    warp_rows(code[i, OP], prog[1], code[i, OFFSET], st[0], pp, at)
+    return cur
+
+
+@hook
+def _r_leave(prog, at, i, cur, st, top, pp):
+    return cur
+
+
+@hook
+def _r_paint(prog, at, i, cur, st, top):
+    """Colours play no part in the field."""
+
+
+@hook
+def _r_finish(prog, at, cur, st):
+    return 0
+
+
+#: The rows mode: a batch's fields, each instruction once for all its points.
+ROWS_MODE = Mode("rows", _r_start, _r_primitive, _r_operator, _r_misses, _r_zero, _r_enter,
+                 _r_warp, _r_leave, _r_paint, _r_finish)
+#: ``rows_walk(prog, nb, (pts, vs, tmp))``: run the program on the nb points pts[0, :, :nb] (rows
+#: x, y, z); the field is left in vs[0, :nb].  pts (:func:`point_rows`) is the point stack of
+#: warps, vs (:func:`value_rows`) the value stack, tmp (depth, RESULT_COLUMNS) scratch for
+#: operators without a batch kernel.
+rows_walk = linked(types.int64(PROGRAM, types.int64, types.Tuple((
+    types.float64[:, :, ::1], types.float64[:, ::1], types.float64[:, ::1]))))(walk(ROWS_MODE))
+#: :data:`rows_walk` as kernels call it.
+eval_rows = rows_walk.call
+
+
+# ----- the lanes mode: the point mode's work for each of nb points, st = (pts, vs, ps) --------
+@hook
+def _f_start(prog, at, st):
+    return at
+
+
+@hook
+def _f_primitive(prog, at, i, cur, pp, st, sp):
+    pts, vs, ps = st
+    for m in range(at):
+        point_primitive(prog, (pts[m, 0], pts[m, 1], pts[m, 2], SHADE), i,
+                                   (pts[m, 0], pts[m, 1], pts[m, 2]), pp, (vs[m], ps[m]), sp)
+
+
+@hook
+def _f_operator(prog, at, i, cur, st, b, k):
+    code = prog[0]
+    for m in range(at):
+        combine(code[i, OP], st[1][m], b, k, prog[1], code[i, OFFSET], SHADE)
+
+
+@hook
+def _f_misses(prog, at, i, cur, pp, st):
+    pts = st[0]
+    for m in range(at):
+        if not outside(prog[2], i, pts[m, 0], pts[m, 1], pts[m, 2]):
+            return False
+    return True
+
+
+@hook
+def _f_zero(at, st, sp):
+    for m in range(at):
+        push_zero(st[1][m], sp, SHADE)
+
+
+@hook
+def _f_enter(prog, at, i, cur, st, pp):
+    pts, _, ps = st
+    o = prog[0][i, OFFSET]
+    for m in range(at):
+        pts[m, 0], pts[m, 1], pts[m, 2] = push_frame(prog[1], o, pts[m, 0], pts[m, 1],
+                                                     pts[m, 2], ps[m], pp, SHADE)
+    return cur
+
+
+@hook
+def _f_warp(prog, at, i, cur, st, pp):
+    pts, _, ps = st
+    op, o = prog[0][i, OP], prog[0][i, OFFSET]
+    for m in range(at):
+        pts[m, 0], pts[m, 1], pts[m, 2] = apply_warp(op, prog[1], o, pts[m, 0], pts[m, 1],
+                                                     pts[m, 2], ps[m], pp, SHADE)
+    return cur
+
+
+@hook
+def _f_leave(prog, at, i, cur, st, top, pp):
+    pts, vs, ps = st
+    for m in range(at):
+        pts[m, 0], pts[m, 1], pts[m, 2] = pop_frame(vs[m], top, ps[m], pp, SHADE)
+    return cur
+
+
+@hook
+def _f_paint(prog, at, i, cur, st, top):
+    pts, vs, ps = st
+    for m in range(at):
+        point_paint(prog, (pts[m, 0], pts[m, 1], pts[m, 2], SHADE), i,
+                               (pts[m, 0], pts[m, 1], pts[m, 2]), (vs[m], ps[m]), top)
+
+
+#: The lanes mode: the point mode in mode SHADE (field, gradient, colour) on a batch's points,
+#: each instruction dispatched once for all of them; a point outside a box the batch enters
+#: evaluates the subtree to the zero it would have skipped.
+LANES_MODE = Mode("lanes", _f_start, _f_primitive, _f_operator, _f_misses, _f_zero, _f_enter,
+                  _f_warp, _f_leave, _f_paint, _r_finish)
+#: ``lanes_walk(prog, nb, (pts, vs, ps))``: point m of pts[:nb] (nb, 3) keeps its own stacks
+#: vs[m] (depth, RESULT_COLUMNS) and ps[m] (depth, POINT_COLUMNS) and its results in vs[m, 0].
+lanes_walk = linked(types.int64(PROGRAM, types.int64, types.Tuple((
+    types.float64[:, ::1], types.float64[:, :, ::1], types.float64[:, :, ::1]))))(
+    walk(LANES_MODE))
+eval_lanes = lanes_walk.call
 
 
 @kernel(nogil=True)
@@ -236,89 +338,22 @@ def _bucket_scatter(t0, t1, P, cell, offsets, xyz, src):
                 src[k] = j
 
 
-@kernel
-def eval_rows_full(code, params, boxes, a, b, pts, nb, vs, ps):
-    """``interp.eval_point`` in mode SHADE (field, gradient, colour) on the nb points pts[:nb]
-    at once: rows a:b of code and boxes as in :func:`eval_rows`, each instruction dispatched once
-    for all of them; point m keeps its own stacks vs[m] (depth, RESULT_COLUMNS) and ps[m]
-    (depth, POINT_COLUMNS) and its results in vs[m, 0].  A point outside a box the batch enters
-    evaluates the subtree to the zero it would have skipped."""
-    n = b - a
-    p = params
-    sp = 0
-    pp = 0
-    i = 0
-    while i < n:
-        op = code[a + i, OP]
-        o = code[a + i, OFFSET]
-        kind = kind_of(op)
-        if kind == K_PRIMITIVE:
-            for m in range(nb):
-                if outside(boxes, a + i, pts[m, 0], pts[m, 1], pts[m, 2]):
-                    push_zero(vs[m], sp, SHADE)
-                else:
-                    push_primitive(op, code, a + i, p, o, pts[m, 0], pts[m, 1], pts[m, 2], SHADE,
-                                   vs[m], sp)
-            sp += 1
-            i += 1
-        elif kind == K_OPERATOR:
-            k = code[a + i, ARG]
-            for m in range(nb):
-                combine(op, vs[m], sp - k, k, p, o, SHADE)
-            sp += 1 - k
-            i += 1
-        elif kind == K_BOX or kind == K_PUSHPT or kind == K_WARP:
-            inside = False
-            for m in range(nb):
-                if not outside(boxes, a + i, pts[m, 0], pts[m, 1], pts[m, 2]):
-                    inside = True
-                    break
-            if not inside:
-                for m in range(nb):
-                    push_zero(vs[m], sp, SHADE)
-                sp += 1
-                i = code[a + i, SKIP]
-                continue
-            if kind == K_PUSHPT:
-                pp += 1
-                for m in range(nb):
-                    pts[m, 0], pts[m, 1], pts[m, 2] = push_frame(p, o, pts[m, 0], pts[m, 1],
-                                                                 pts[m, 2], ps[m], pp, SHADE)
-            elif kind == K_WARP:
-                for m in range(nb):
-                    pts[m, 0], pts[m, 1], pts[m, 2] = apply_warp(op, p, o, pts[m, 0], pts[m, 1],
-                                                                 pts[m, 2], ps[m], pp, SHADE)
-            i += 1
-        elif kind == K_POPPT:
-            for m in range(nb):
-                pts[m, 0], pts[m, 1], pts[m, 2] = pop_frame(vs[m], sp - 1, ps[m], pp, SHADE)
-            pp -= 1
-            i += 1
-        elif kind == K_PAINT:
-            for m in range(nb):
-                paint_top(op, p, o, pts[m, 0], pts[m, 1], pts[m, 2], vs[m], sp - 1, SHADE)
-            i += 1
-        else:  # K_ZERO
-            for m in range(nb):
-                push_zero(vs[m], sp, SHADE)
-            sp += 1
-            i += 1
-
-
 @kernel(nrt=True, nogil=True)
-def _eval_runs(t0, t1, start, gc, gb, params, first, xyz, depth, slab, vals):
+def _eval_runs(t0, t1, regions, params, first, xyz, depth, slab, vals):
     """Evaluate slabs t0..t1 - 1 of ``slab`` cell-sorted points of xyz (slabs, so crowded cells
     spread over the threads), each cell's run in batches of BATCH: the field into vals[:, 0], or
-    with vals (M, RESULT_COLUMNS) also the gradient and colour (:func:`eval_rows_full`)."""
+    with vals (M, RESULT_COLUMNS) also the gradient and colour (:data:`eval_lanes`).
+    ``regions``: (start, code, boxes) of ``Regions.arrays``."""
+    start, gc, gb = regions
     m = xyz.shape[0]
     full = vals.shape[1] == RESULT_COLUMNS
-    pts = point_rows(depth)
-    vs = value_rows(depth)
-    tmp = np.empty((depth, RESULT_COLUMNS))
-    lanes = BATCH if full else 0  # each point's own stacks, for eval_rows_full
-    points = np.empty((lanes, 3))
-    stacks = np.empty((lanes, depth, RESULT_COLUMNS))
-    frames = np.empty((lanes, depth, POINT_COLUMNS))
+    rows = (point_rows(depth), value_rows(depth), np.empty((depth, RESULT_COLUMNS)))
+    pts, vs = rows[0], rows[1]
+    lanes = BATCH if full else 0  # each point's own stacks, for eval_lanes
+    each = (np.empty((lanes, 3)), np.empty((lanes, depth, RESULT_COLUMNS)),
+            np.empty((lanes, depth, POINT_COLUMNS)))
+    points, stacks = each[0], each[1]
+    no_lips = np.empty(0)  # (regions keep no Lipschitz bounds: batches read none)
     for t in range(t0, t1):
         s0, s1 = t * slab, min(m, (t + 1) * slab)
         c = np.searchsorted(first, s0, side="right") - 1
@@ -327,12 +362,12 @@ def _eval_runs(t0, t1, start, gc, gb, params, first, xyz, depth, slab, vals):
             while first[c + 1] <= s:
                 c += 1
             nb = min(BATCH, first[c + 1] - s, s1 - s)
+            prog = (gc[start[c]:start[c + 1]], params, gb[start[c]:start[c + 1]], no_lips)
             if full:
                 for k in range(nb):
                     for r in range(3):
                         points[k, r] = xyz[s + k, r]
-                eval_rows_full(gc, params, gb, start[c], start[c + 1], points, nb, stacks,
-                               frames)
+                eval_lanes(prog, nb, each)
                 for k in range(nb):
                     for r in range(RESULT_COLUMNS):
                         vals[s + k, r] = stacks[k, 0, r]
@@ -340,7 +375,7 @@ def _eval_runs(t0, t1, start, gc, gb, params, first, xyz, depth, slab, vals):
                 for r in range(3):
                     for k in range(nb):
                         pts[0, r, k] = xyz[s + k, r]
-                eval_rows(gc, params, gb, start[c], start[c + 1], pts, nb, vs, tmp)
+                eval_rows(prog, nb, rows)
                 for k in range(nb):
                     vals[s + k, 0] = vs[0, k]
             s += nb
@@ -407,6 +442,5 @@ def eval_grouped(regions: Regions, params: np.ndarray, depth: int, xyz: np.ndarr
     """Values of the (M, 3) points xyz, grouped by region (xyz[first[r]:first[r + 1]] lie in
     region r), into vals (M, 1) (the field) or (M, 7) (with gradients and colours), each group
     run by its region's program in slabs across the threads."""
-    start, gc, gb = regions.arrays
-    parallel_for(_eval_runs, (len(xyz) + SLAB - 1) // SLAB, start, gc, gb, params, first, xyz,
+    parallel_for(_eval_runs, (len(xyz) + SLAB - 1) // SLAB, regions.arrays, params, first, xyz,
                  depth, SLAB, vals, grain=1)

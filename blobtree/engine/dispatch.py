@@ -114,10 +114,16 @@ def _dispatcher(name: str, args: str, kind: str, case: str, miss: str) -> str:
 #: Kernels compiled into their dispatcher (the rest are called): the bounds the ray tracer asks
 #: for at every step, and the operators, whose work is small next to a call.
 INLINE_KERNELS = ("along", "lipschitz", "rise", "combine", "rows", "bound", "map")
-#: Dispatchers compiled into their one caller (``warp_map``'s, ``interp.apply_warp``, is itself
+#: Dispatchers compiled into their one caller (``warp_map``'s, ``point.apply_warp``, is itself
 #: compiled into its callers).
 INLINE_DISPATCHERS = ("prim_s", "prim_along", "prim_lipschitz", "prim_rise", "combine",
                       "combine_rows", "op_bound", "warp_map")
+
+
+def _inlined(fn):
+    """``fn`` compiled on its own, once, and inlined by LLVM into each caller (numba's own
+    inlining would type its body again at every call site)."""
+    return kernel(fn, forceinline=True, tag="inline")
 
 
 def _kernels() -> dict[str, object]:
@@ -126,10 +132,10 @@ def _kernels() -> dict[str, object]:
     for cls in TYPES:
         for field, fn in vars(cls.KERNELS).items():
             if fn is not None:
-                out[f"k{OPCODE[cls]}_{field}"] = (kernel(fn.py_func, inline="always")
+                out[f"k{OPCODE[cls]}_{field}"] = (_inlined(fn.py_func)
                                                   if field in INLINE_KERNELS else fn)
         if cls.KIND == "primitive":  # batch loops inline s: the gradient they drop is not computed
-            out[f"k{OPCODE[cls]}_s_inline"] = kernel(cls.KERNELS.s.py_func, inline="always")
+            out[f"k{OPCODE[cls]}_s_inline"] = _inlined(cls.KERNELS.s.py_func)
     return out
 
 
@@ -164,10 +170,10 @@ SOURCE = "".join([
     _dispatcher("prim_along", "p, o, ox, oy, oz, dx, dy, dz, length", "primitive",
                 lambda c: ("return K.along(p, o, ox, oy, oz, dx, dy, dz, length)"
                            if c.KERNELS.along else "return -1.0"), "return NAN"),
-    _dispatcher("prim_rise", "p, o, lox, loy, loz, hix, hiy, hiz, dx, dy, dz, spread",
-                "primitive",
-                lambda c: ("return K.rise(p, o, lox, loy, loz, hix, hiy, hiz, dx, dy, dz, "
-                           "spread)" if c.KERNELS.rise else "return -1.0"), "return NAN"),
+    _dispatcher("prim_rise", "p, o, box, cone", "primitive",
+                lambda c: ("return K.rise(p, o, box[0], box[1], box[2], box[3], box[4], "
+                           "box[5], cone[0], cone[1], cone[2], cone[3])" if c.KERNELS.rise
+                           else "return -1.0"), "return NAN"),
     _dispatcher("prim_rows", "fid, p, o, pts, pp, vs, sp, nb", "primitive", _ROWS, "return"),
     _dispatcher("combine", "vs, b, k, p, o, mode", "operator",
                 "K.combine(vs, b, k, p, o, mode)\nreturn", "return"),
@@ -207,8 +213,8 @@ def _build() -> dict[str, object]:
     exec(compile(SOURCE, __file__, "exec"), namespace)  # noqa: S102 (our own generated code)
     names = ("prim_s", "prim_uv", "prim_lipschitz", "prim_along", "prim_rise", "prim_rows",
              "combine", "op_bound", "combine_rows", "warp_map", "warp_rows", "paint")
-    return {name: kernel(namespace[name],
-                         inline="always" if name in INLINE_DISPATCHERS else "never")
+    return {name: (_inlined(namespace[name]) if name in INLINE_DISPATCHERS
+                   else kernel(namespace[name]))
             for name in names}
 
 
@@ -223,7 +229,7 @@ prim_lipschitz = _D["prim_lipschitz"]
 #: bound on |df/dt| along a frame segment, or -1: prim_along(op, p, o, ox.., dx.., length)
 prim_along = _D["prim_along"]
 #: bound on how fast a primitive's field rises in a frame box along a cone of directions, or -1:
-#: prim_rise(op, p, o, lo.., hi.., dx.., spread)
+#: prim_rise(op, p, o, (lox, loy, loz, hix, hiy, hiz), (dx, dy, dz, spread))
 prim_rise = _D["prim_rise"]
 #: a warp's query map over the batch's points in place: warp_rows(op, p, o, pts, pp, nb)
 warp_rows = _D["warp_rows"]

@@ -34,7 +34,8 @@ from ..nodes.node import ISO, REGISTRY, Node
 from ..nodes.warp import Warp
 from ..runtime.threads import parallel_for
 from . import batch as B
-from . import interp as K
+from . import bounds as K
+from . import point
 from . import specialize as S
 from .dispatch import (
     K_OPERATOR,
@@ -105,8 +106,7 @@ class Program:
         elif grid is not None:
             B.eval_sorted(grid, self.params, self.depth, P, f, g, c)
         else:
-            parallel_for(K.eval_range, n, self.code, self.params, self.boxes, P, mode,
-                         self.depth, f, g, c)
+            parallel_for(point.eval_range, n, self.arrays, P, mode, self.depth, (f, g, c))
         return f, g, c
 
     @cached_property
@@ -125,10 +125,9 @@ class Program:
             size = ext / dims
             pad = 1e-9 * float(ext.max())
             rlo, rhi = S.cell_boxes(lo, size, dims, pad)
-            start = S.region_starts(self.code, self.params, self.boxes, self.lips, rlo, rhi)
+            start = S.region_starts(self.arrays, rlo, rhi)
             if start[-1] <= GRID_MAX_INSTRUCTIONS or cells <= GRID_MIN_CELLS:
-                cells = S.specialize_regions(self.code, self.params, self.boxes, self.lips, rlo,
-                                             rhi, start)
+                cells = S.specialize_regions(self.arrays, rlo, rhi, start)
                 return Grid(*cells.arrays, lo.copy(), size, dims)
             cells //= 4
 
@@ -139,8 +138,7 @@ class Program:
         lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
         corners = np.abs(np.concatenate([lo.ravel(), hi.ravel()]))
         pad = 1e-9 * float(np.max(corners[np.isfinite(corners)], initial=1.0))
-        return S.specialize_regions(self.code, self.params, self.boxes, self.lips, lo - pad,
-                                    hi + pad)
+        return S.specialize_regions(self.arrays, lo - pad, hi + pad)
 
     def field_grouped(self, regions: Regions, P: np.ndarray, first: np.ndarray) -> np.ndarray:
         """Field values (N,) of (N, 3) points grouped by region: P[first[r]:first[r + 1]] all
@@ -184,8 +182,7 @@ class Program:
         lo = np.ascontiguousarray(lo, dtype=np.float64).reshape(-1, 3)
         hi = np.ascontiguousarray(hi, dtype=np.float64).reshape(-1, 3)
         out = np.empty(len(lo))
-        parallel_for(K.lipschitz_range, len(lo), self.code, self.params, self.boxes, self.lips,
-                     lo, hi, self.depth, out)
+        parallel_for(K.lipschitz_range, len(lo), self.arrays, lo, hi, self.depth, out)
         return out
 
     def bound_at(self, lo: np.ndarray, hi: np.ndarray, at: np.ndarray) -> np.ndarray:
@@ -205,8 +202,7 @@ class Program:
             return np.stack([f, lip, np.where(f < ISO, gap, 0.0), np.where(f > ISO, gap, 0.0)],
                             axis=1)
         out = np.empty((len(lo), 4))
-        parallel_for(K.bound_range, len(lo), self.code, self.params, self.boxes, self.lips,
-                     lo, hi, at, self.depth, out)
+        parallel_for(K.bound_range, len(lo), self.arrays, lo, hi, at, self.depth, out)
         return out
 
 
@@ -468,7 +464,7 @@ def compile_tree(tree: Node) -> Program:
 def _value_root(tree: Node) -> Node:
     """The tree to emit: under a one-child union (the same field) where it holds an operator
     that ``WANTS_VALUES`` below a root whose bound takes no values, so that the tracer and the
-    mesher take the value-aware bound pass (``interp.bounds_use_values`` reads the root)."""
+    mesher take the value-aware bound pass (``bounds.bounds_use_values`` reads the root)."""
     root_takes_values = tree.KIND == "operator" and tree.KERNELS.bound is not None
     if root_takes_values or not any(getattr(n, "WANTS_VALUES", False) for n in tree.unique()):
         return tree

@@ -27,6 +27,7 @@ import numpy as np
 from ..nodes.layout import ARG, OFFSET, OP, SKIP
 from ..runtime.jit import kernel
 from ..runtime.threads import parallel_for
+from .bounds import carry, half_diagonal, misses, support_misses
 from .dispatch import (
     K_OPERATOR,
     K_PRIMITIVE,
@@ -40,12 +41,11 @@ from .dispatch import (
     ZERO_REST,
     kind_of,
 )
-from .interp import carry, half_diagonal, misses, support_misses
 
 
 @kernel
 def _misses(boxes, i, lo, hi):
-    return misses(boxes, i, lo[0], lo[1], lo[2], hi[0], hi[1], hi[2])
+    return misses(boxes, i, (lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]))
 
 
 @kernel
@@ -55,28 +55,27 @@ def _contains(boxes, i, lo, hi):
 
 
 @kernel
-def _frame_misses(code, params, boxes, lips, i, lo, hi):
+def _frame_misses(prog, i, lo, hi):
     """Does the box [lo, hi] miss the warp entered at PUSHPT i once carried into its frame?
     The PUSHPT's own box is the warp's box in the outer frame, an axis-aligned box around a
     turned one; carried in, the region meets the warp's box and then, carried through the warp,
     its child's box in their own axes (a long bent spine's box hides most of what its outer
     box holds).  The region must be bounded."""
+    code, boxes = prog[0], prog[2]
     # (``boxes`` stands in for carry's point stack: a region carried through a warp maps one
     # point in mode VALUE, which reads no stack and writes none)
-    lox, loy, loz, hix, hiy, hiz, rad = carry(
-        K_PUSHPT, code[i, OP], params, code[i, OFFSET], lips[i], lo[0], lo[1], lo[2], hi[0], hi[1],
-        hi[2], half_diagonal(lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]), boxes)
+    region = carry(True, prog, i, (lo[0], lo[1], lo[2], hi[0], hi[1], hi[2],
+                                   half_diagonal(lo[0], lo[1], lo[2], hi[0], hi[1], hi[2])),
+                   boxes)
     w = i + 1
-    if misses(boxes, w, lox, loy, loz, hix, hiy, hiz):
+    if misses(boxes, w, region):
         return True
     if kind_of(code[w, OP]) != K_WARP:
         return False
-    lox, loy, loz, hix, hiy, hiz, rad = carry(K_WARP, code[w, OP], params, code[w, OFFSET], lips[w],
-                                              lox, loy, loz, hix, hiy, hiz, rad, boxes)
-    if misses(boxes, w + 1, lox, loy, loz, hix, hiy, hiz):
+    region = carry(False, prog, w, region, boxes)
+    if misses(boxes, w + 1, region):
         return True
-    return kind_of(code[w + 1, OP]) == K_PRIMITIVE and support_misses(
-        code, params, lips, w + 1, lox, loy, loz, hix, hiy, hiz, rad)
+    return kind_of(code[w + 1, OP]) == K_PRIMITIVE and support_misses(prog, w + 1, region)
 
 
 @kernel
@@ -124,8 +123,9 @@ def specialize_work(code):
 
 
 @kernel
-def specialize(code, params, boxes, lips, lo, hi, oc, ob, ol, work):
-    """Write the program specialised to the box [lo, hi] into oc, ob, ol; return its length.
+def specialize(prog, lo, hi, out, work):
+    """Write the program ``prog`` specialised to the box [lo, hi] into out = (oc, ob, ol) (its
+    code, boxes and lips); return its length.
 
     One pass over the program with a stack of open subtrees (a BOX head, its children, then the
     closing operator or COLOR at the head's skip target - 1), kept in ``work``
@@ -133,6 +133,8 @@ def specialize(code, params, boxes, lips, lo, hi, oc, ob, ol, work):
     counting may call it.  ``code`` must be a whole program (``Program.arrays``), never one this
     wrote: that one lacks the BOX heads of the subtrees holding the box whole, and its closing
     instructions keep the whole program's skip targets."""
+    code, boxes, lips = prog[0], prog[2], prog[3]
+    oc, ob, ol = out
     f_end = work[0]     # source index after the subtree
     f_start = work[1]   # output index where it began
     f_head = work[2]    # output index of its kept BOX head, or -1
@@ -142,7 +144,8 @@ def specialize(code, params, boxes, lips, lo, hi, oc, ob, ol, work):
     f_drop = work[6]    # may this subtree vanish if zero?
     ncode = code.shape[0]
     tight = _finite(lo, hi)  # also test frames and supports, beyond the boxes
-    rad = half_diagonal(lo[0], lo[1], lo[2], hi[0], hi[1], hi[2])  # the region's ball
+    region = (lo[0], lo[1], lo[2], hi[0], hi[1], hi[2],
+              half_diagonal(lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]))  # with the region's ball
     top = -1
     n = 0
     i = 0
@@ -175,8 +178,7 @@ def specialize(code, params, boxes, lips, lo, hi, oc, ob, ol, work):
             op = code[i, OP]
             if kind_of(op) == K_PRIMITIVE or kind_of(op) == K_ZERO:
                 if kind_of(op) == K_ZERO or _misses(boxes, i, lo, hi) or (
-                        tight and support_misses(code, params, lips, i, lo[0], lo[1], lo[2],
-                                                 hi[0], hi[1], hi[2], rad)):
+                        tight and support_misses(prog, i, region)):
                     z = True
                     if not drop:
                         n = _zero(oc, ob, ol, n)
@@ -184,8 +186,8 @@ def specialize(code, params, boxes, lips, lo, hi, oc, ob, ol, work):
                     n = _copy(code, boxes, lips, i, oc, ob, ol, n)
                 i += 1
                 have = True
-            elif _misses(boxes, i, lo, hi) or (tight and kind_of(op) == K_PUSHPT and _frame_misses(
-                    code, params, boxes, lips, i, lo, hi)):
+            elif _misses(boxes, i, lo, hi) or (tight and kind_of(op) == K_PUSHPT
+                                               and _frame_misses(prog, i, lo, hi)):
                 z = True
                 if not drop:
                     n = _zero(oc, ob, ol, n)
@@ -266,17 +268,16 @@ def cell_boxes(lo, size, dims, pad) -> tuple[np.ndarray, np.ndarray]:
 
 
 @kernel(nrt=True, nogil=True)
-def _specialize_part(start, stop, code, params, boxes, lips, rlo, rhi, lengths, gc, gb, fill):
+def _specialize_part(start, stop, prog, rlo, rhi, lengths, gc, gb, fill):
     """Specialise to regions start..stop - 1 (boxes rlo, rhi): record the lengths (``fill``
     False), or copy the programs to rows lengths[r]:lengths[r] + m (``fill`` True; lengths then
     holds the starts)."""
-    n = code.shape[0]
-    oc = np.empty((n, 4), dtype=np.int64)  # scratch: specialize may write past its length
-    ob = np.empty((n, 6))
-    ol = np.empty(n)
-    work = specialize_work(code)
+    n = prog[0].shape[0]
+    out = (np.empty((n, 4), dtype=np.int64), np.empty((n, 6)), np.empty(n))  # (scratch:
+    oc, ob = out[0], out[1]  # specialize may write past its length)
+    work = specialize_work(prog[0])
     for r in range(start, stop):
-        m = specialize(code, params, boxes, lips, rlo[r], rhi[r], oc, ob, ol, work)
+        m = specialize(prog, rlo[r], rhi[r], out, work)
         if not fill:
             lengths[r + 1] = m
             continue
@@ -288,28 +289,28 @@ def _specialize_part(start, stop, code, params, boxes, lips, rlo, rhi, lengths, 
                 gb[a + i, q] = ob[i, q]
 
 
-def region_starts(code, params, boxes, lips, rlo, rhi) -> np.ndarray:
+def region_starts(prog, rlo, rhi) -> np.ndarray:
     """Where each region's specialised program would start (R + 1 entries; the last is the
     total length): the counting pass of :func:`specialize_regions`, cheap enough to try grids
     of several sizes."""
     lengths = np.zeros(len(rlo) + 1, dtype=np.int64)
-    parallel_for(_specialize_part, len(rlo), code, params, boxes, lips, rlo, rhi, lengths,
+    parallel_for(_specialize_part, len(rlo), prog, rlo, rhi, lengths,
                  np.empty((0, 4), dtype=np.int64), np.empty((0, 6)), False)
     return np.cumsum(lengths)
 
 
-def specialize_regions(code, params, boxes, lips, rlo, rhi, start=None) -> Regions:
-    """The program specialised to each box (rlo[r], rhi[r]) ((R, 3) each; ``start`` from
+def specialize_regions(prog, rlo, rhi, start=None) -> Regions:
+    """The program ``prog`` (``Program.arrays``) specialised to each box (rlo[r], rhi[r]) ((R, 3)
+    each; ``start`` from
     :func:`region_starts` if already counted).  (Batch evaluation reads no Lipschitz bounds,
     so the regions keep none.)"""
     rlo = np.ascontiguousarray(rlo, dtype=np.float64)
     rhi = np.ascontiguousarray(rhi, dtype=np.float64)
     if start is None:
-        start = region_starts(code, params, boxes, lips, rlo, rhi)
+        start = region_starts(prog, rlo, rhi)
     total = int(start[-1])
     gc, gb = np.empty((total, 4), dtype=np.int64), np.empty((total, 6))
-    parallel_for(_specialize_part, len(rlo), code, params, boxes, lips, rlo, rhi, start, gc, gb,
-                 True)
+    parallel_for(_specialize_part, len(rlo), prog, rlo, rhi, start, gc, gb, True)
     return Regions(start, gc, gb)
 
 

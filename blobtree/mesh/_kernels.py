@@ -276,9 +276,9 @@ def _fill_part(start, stop, values, origins, box_start, boxes, fine, dims, iso):
             tris = _grown_rows(tris, max(2 * tris.shape[0], ot + most))
         if oc + most // 3 > centres.shape[0]:  # at most 4 loops, each one centre
             centres = _grown_rows(centres, max(2 * centres.shape[0], oc + most // 3))
-        ov, oc, ot = _fill_block(values, blk, origins, box_start, boxes, fine, dims, iso, ov, oc,
-                                 ot, keys, f0, f1, centres, tris, shared, vid, touched, scratch,
-                                 v)
+        ov, oc, ot = _fill_block(values, blk, (origins, box_start, boxes, fine, dims), iso,
+                                 (ov, oc, ot), (keys, f0, f1, centres, tris, shared),
+                                 (vid, touched, scratch, v))
     block_v[stop - start] = ov
     return keys[:ov], f0[:ov], f1[:ov], shared[:ov], centres[:oc], tris[:ot], block_v
 
@@ -304,31 +304,15 @@ def _grown_rows(a, size):
 
 
 @cached
-def _fill_block(
-    values,
-    blk,
-    origins,
-    box_start,
-    boxes,
-    fine,
-    dims,
-    iso,
-    ov,
-    oc,
-    ot,
-    keys,
-    f0,
-    f1,
-    centres,
-    tris,
-    shared,
-    vid,
-    touched,
-    scratch,
-    v,
-):
-    """One block of :func:`_fill_part`, writing from (ov, oc, ot) on; returns where the next
-    block writes, and leaves ``vid`` all -1 again."""
+def _fill_block(values, blk, grid, iso, at, out, work):
+    """One block of :func:`_fill_part` (grid = (origins, box_start, boxes, fine, dims)), writing
+    into out = (keys, f0, f1, centres, tris, shared) from at = (ov, oc, ot) on; returns where
+    the next block writes, and leaves ``vid`` of work = (vid, touched, scratch, v) all -1
+    again."""
+    origins, box_start, boxes, fine, dims = grid
+    ov, oc, ot = at
+    keys, f0, f1, centres, tris, shared = out
+    vid, touched, scratch, v = work
     m = values.shape[1]
     d1 = dims[1]
     d2 = dims[2]

@@ -65,8 +65,8 @@ def gather(sampled, boxes, kept_slot, kept_loc, offsets, block_origins, grid_ori
                  counts)
     first = np.cumsum(counts)
     flat, coords = np.empty(first[-1], dtype=np.int64), np.empty((first[-1], 3))
-    parallel_for(_place_new, groups, boxes, group, kept_slot, len(offsets), sampled.shape[1],
-                 found, first, block_origins, grid_origin, h, flat, coords)
+    parallel_for(_place_new, groups, (boxes, group, kept_slot), (len(offsets), sampled.shape[1]),
+                 found, first, (block_origins, grid_origin, h), (flat, coords))
     return flat, coords, first
 
 
@@ -91,10 +91,14 @@ def _find_new(start, stop, sampled, boxes, group, kept_slot, kept_loc, offsets, 
 
 
 @cached(nogil=True)
-def _place_new(start, stop, boxes, group, kept_slot, noffsets, m, found, first, block_origins,
-               grid_origin, h, flat, coords):
-    """Groups start..stop - 1: the points :func:`_find_new` found, at their block's place in
-    ``flat`` and ``coords``."""
+def _place_new(start, stop, groups, sizes, found, first, lattice, out):
+    """Groups start..stop - 1 of groups = (boxes, group, kept_slot): the points
+    :func:`_find_new` found (sizes = (offsets per box, block side m)), at their block's place in
+    out = (flat, coords); lattice = (block_origins, grid_origin, h)."""
+    boxes, group, kept_slot = groups
+    noffsets, m = sizes
+    block_origins, grid_origin, h = lattice
+    flat, coords = out
     for g in range(start, stop):
         b = kept_slot[boxes[group[g]]]
         src = group[g] * noffsets
@@ -189,18 +193,18 @@ def spread(
     """Kept boxes not yet active across a crossed face of a frontier box; marks them active
     (the faces are read in parallel, the boxes marked in order)."""
     across = np.empty((frontier.shape[0], 6), dtype=np.int64)
-    parallel_for(_across, len(frontier), values, frontier, kept_slot, kept_loc, boxmap, block_of,
-                 block_origins, block, fine, iso, across)
+    parallel_for(_across, len(frontier), values, frontier, (kept_slot, kept_loc, boxmap, block_of,
+                 block_origins), (block, fine, iso), across)
     return _activate(across.reshape(-1), active)
 
 
 @cached(nogil=True)
-def _across(
-    start, stop, values, frontier, kept_slot, kept_loc, boxmap, block_of, block_origins, block,
-    fine, iso, across
-):
+def _across(start, stop, values, frontier, lattice, sizes, across):
     """For frontier boxes start..stop - 1, the kept box across each face (axis, side) with a
-    crossed lattice edge, in across[q, 2 * axis + side], else -1."""
+    crossed lattice edge, in across[q, 2 * axis + side], else -1 (lattice = (kept_slot,
+    kept_loc, boxmap, block_of, block_origins), sizes = (block, fine, iso))."""
+    kept_slot, kept_loc, boxmap, block_of, block_origins = lattice
+    block, fine, iso = sizes
     s = block // fine  # boxes per side of a block
     here = np.empty(3, dtype=np.int64)  # a box's place in its block, in boxes
     there = np.empty(3, dtype=np.int64)  # and the box across a face

@@ -80,9 +80,12 @@ def bracket_step(start, stop, rows, g, t, ta, tb, ga, gb, last, tol, done):
 
 
 @cached(nogil=True)
-def final_roots(start, stop, ta, tb, ga, gb, t, t_lo, t_hi, p0, axis, h, out):
-    """The bracket (kept ``1e-4`` from the edge's ends, so that no two edges' vertices meet)
-    into t_lo, t_hi, the secant root inside it into t, and its point into out."""
+def final_roots(start, stop, bracket, t, t_lo, t_hi, edges, out):
+    """The bracket = (ta, tb, ga, gb) (kept ``1e-4`` from the edge's ends, so that no two
+    edges' vertices meet) into t_lo, t_hi, the secant root inside it into t, and its point on
+    edges = (p0, axis, h) into out."""
+    ta, tb, ga, gb = bracket
+    p0, axis, h = edges
     for r in range(start, stop):
         t_lo[r] = max(min(ta[r], tb[r]), 1e-4)
         t_hi[r] = min(max(ta[r], tb[r]), 1.0 - 1e-4)

@@ -431,7 +431,7 @@ def _refine(prog, grid: _Grid, regions, p0, axis, f0, f1, vertex_start):
         parallel_for(bracket_step, m, rows, g, t, ta, tb, ga, gb, last, VERTEX_TOL, done)
         rows = rows.compress(~done)
     t_lo, t_hi = np.empty(n), np.empty(n)
-    parallel_for(final_roots, n, ta, tb, ga, gb, t, t_lo, t_hi, p0, axis, grid.h, pts)
+    parallel_for(final_roots, n, (ta, tb, ga, gb), t, t_lo, t_hi, (p0, axis, grid.h), pts)
     return t, t_lo, t_hi, pts
 
 

@@ -31,7 +31,7 @@ class PrimitiveKernels:
 @dataclass(frozen=True)
 class OperatorKernels:
     """``combine(vs, b, k, p, o, mode)``: the operator over value-stack rows b .. b + k - 1 (field,
-    gradient, colour; see engine.interp), result in row b; optional ``rows(vs, b, k, p, o, nb)``:
+    gradient, colour; see engine.point), result in row b; optional ``rows(vs, b, k, p, o, nb)``:
     field only over the rows of a batch of nb points (engine.batch), vectorisable (its last
     ``layout.ROWS_SCRATCH`` rows are scratch); optional
     ``bound(vs, b, k, p, o, reach) -> (bound, below, above)``: from the children's fields at a

@@ -196,10 +196,8 @@ def intersect(tree, origins: np.ndarray, directions: np.ndarray,
     tm = np.broadcast_to(np.asarray(tmax, dtype=np.float64), (len(o),)).copy()
     if np.any(np.isnan(tm)) or np.any(tm < 0.0):
         raise ValueError(f"tmax must be >= 0, got {tmax!r}")
-    code, params, boxes, lips = prog.arrays
     lo, hi = (np.asarray(b, dtype=np.float64) for b in prog.bounds)
     eps = 1e-6 * float(np.linalg.norm(hi - lo))
     out = np.empty(len(o))
-    parallel_for(intersect_rays, len(o), code, params, boxes, lips, prog.depth, o, d, lo, hi, tm,
-                 eps, out)
+    parallel_for(intersect_rays, len(o), prog.arrays, prog.depth, (o, d), (lo, hi), tm, eps, out)
     return out

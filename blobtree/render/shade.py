@@ -8,11 +8,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..checks import Number
-from ..engine import interp
 from ..engine.batch import BATCH, eval_rows
+from ..engine.point import eval_point
 from ..engine.specialize import specialize
 from ..nodes import kernel_math
 from ..nodes.layout import COLOR, FIELD, GRAD, GRADIENT, SHADE
+from ..nodes.node import ISO
 from ..runtime.jit import kernel
 from .camera import Camera, as_color, as_vec3
 from .trace import LOW, PEAK, RISE, clip_box, trace_packet
@@ -112,23 +113,23 @@ AMBIENT, SPECULAR, SHININESS, OCCLUSION, OCCLUSION_RADIUS, LIGHT_TAN, SKY = rang
 OCCLUSION_SAMPLES = 4
 
 
-@kernel(inline="always")
-def _occlusions(code, params, boxes, local, llo, lhi, n, rays, O, D, look, surf, hits, pts, vs,
-                tmp):
+@kernel
+def _occlusions(prog, local, n, look, packet):
     """Ambient occlusion in [0, 1] at every hit of the packet, into column OCC of the surface
     table, from the field alone: a lone surface falls off along its normal as 0.5 - slope * d
     (slope = ``|grad f|`` at the hit), so whatever the samples at d = radius * k /
     OCCLUSION_SAMPLES exceed that by is other surface nearby (a crease, the inside of the
     aperture); nearer samples weigh more.  The samples in the local program's box [llo, lhi]
     are evaluated on it, the rest on the full program, a batch at a time
-    (``batch.eval_rows``)."""
+    (``batch.eval_rows``).  ``local = (program, llo, lhi)``."""
+    _, rays, O, D, _, _, surf, _, _, rows, _, hits = packet
+    pts, vs = rows[0], rows[1]
     which, values = hits
+    lprog, llo, lhi = local
     radius = look[OCCLUSION_RADIUS]
     ns = OCCLUSION_SAMPLES
     for in_local in (True, False):
-        prog = (code, boxes)
-        if in_local:
-            prog = (local[0], local[1])
+        run = lprog if in_local else prog
         m = 0
         for q in range(n * ns + 1):
             if q < n * ns and rays[HIT, q // ns] >= 0.0:
@@ -144,7 +145,7 @@ def _occlusions(code, params, boxes, local, llo, lhi, n, rays, O, D, look, surf,
                     pts[0, 0, m], pts[0, 1, m], pts[0, 2, m] = x, y, z
                     m += 1
             if m == BATCH or (q == n * ns and m > 0):
-                eval_rows(prog[0], params, prog[1], 0, prog[0].shape[0], pts, m, vs, tmp)
+                eval_rows(run, m, rows)
                 for j in range(m):
                     values[which[j] // ns, which[j] % ns] = vs[0, j]
                 m = 0
@@ -162,18 +163,19 @@ def _occlusions(code, params, boxes, local, llo, lhi, n, rays, O, D, look, surf,
         surf[k, OCC] = occ / total
 
 
-@kernel(inline="always")
-def penumbra(code, params, boxes, x, y, z, t, light_tan, vstack, pstack):
+@kernel
+def penumbra(prog, point, t, light_tan, st):
     """How much of an area light of angular radius atan(light_tan) a shadow ray that missed
-    still sees, from the point (x, y, z) at distance t where it passed nearest another surface:
+    still sees, from ``point`` (x, y, z) at distance t where it passed nearest another surface:
     that surface lies about d = (0.5 - f) / ``|grad f|`` away (the field's first-order Taylor
     estimate), and the light's disc, t * light_tan wide there, is seen in full once d exceeds
     it (the penumbra of an area light, estimated from one ray)."""
-    interp.eval_point(code, params, boxes, x, y, z, GRADIENT, vstack, pstack)
-    g = np.sqrt(vstack[0, GRAD] ** 2 + vstack[0, GRAD + 1] ** 2 + vstack[0, GRAD + 2] ** 2)
+    vs = st[0]
+    eval_point(prog, (point[0], point[1], point[2], GRADIENT), st)
+    g = np.sqrt(vs[0, GRAD] ** 2 + vs[0, GRAD + 1] ** 2 + vs[0, GRAD + 2] ** 2)
     if g <= 0.0 or t <= 0.0:
         return 1.0
-    return _smoothstep((0.5 - vstack[0, FIELD]) / (g * t * light_tan))
+    return _smoothstep((ISO - vs[0, FIELD]) / (g * t * light_tan))
 
 
 @kernel(inline="always")
@@ -206,7 +208,7 @@ NX, NY, NZ, AR, AG, AB, CR, CG, CB, SR, SG, SB, SLOPE, OCC = range(14)
 def _surface(vx, vy, vz, surf, k, last, ev):
     """The outward normal, albedo and slope at a surface point seen along view direction v
     (unit, toward the surface), into row k of the surface table ``surf`` (columns :data:`NX`
-    ...), from ``ev``: the field, gradient and colour there (``interp.eval_point``'s mode SHADE
+    ...), from ``ev``: the field, gradient and colour there (``point.eval_point``'s mode SHADE
     row); the linear albedo is row ``last``'s (the last hit's, -1: none) where the field gives
     the same colour (within :data:`ALBEDO_SAME`).  The occlusion OCC is 0 until
     :func:`_occlusions` measures it; :func:`_ambient` then lights the row."""
@@ -283,15 +285,15 @@ STRETCH_MIN = 1000
 STRETCH = 4.0
 
 
-@kernel(inline="always")
-def _trace_stretches(code, params, boxes, lips, n, delta0, packet, vstack, pstack):
+@kernel
+def _trace_stretches(prog, n, delta0, packet, st):
     """:func:`trace_packet` of the shadow rays in the ray table (from T to T_END; a ray whose
     T_END is 0 takes no part) on the full program, first candidate segment delta0: a long
     program (:data:`STRETCH_MIN`) is specialised to the box around the rays' next stretch, the
     first ``STRETCH`` delta0 long, each next twice as long.  Rays found in shadow get REACHED 0."""
-    _, rays, _, _, SO, SD, _, pk, ids, pts, vs, tmp, spec, _ = packet
-    oc, ob, ol, work, lo, hi = spec
-    stretch = STRETCH * delta0 if code.shape[0] >= STRETCH_MIN else np.inf
+    _, rays, _, _, SO, SD, _, pk, ids, rows, spec, _ = packet
+    out, work, lo, hi = spec
+    stretch = STRETCH * delta0 if prog[0].shape[0] >= STRETCH_MIN else np.inf
     while True:
         m = 0
         for k in range(3):
@@ -307,27 +309,27 @@ def _trace_stretches(code, params, boxes, lips, n, delta0, packet, vstack, pstac
                 m += 1
         if m == 0:
             return
-        prog = (code, boxes, lips)
+        run = prog
         if stretch < np.inf:
-            ln = specialize(code, params, boxes, lips, lo, hi, oc, ob, ol, work)
-            prog = (oc[:ln], ob[:ln], ol[:ln])
-        trace_packet(prog[0], params, prog[1], prog[2], SO, SD, n, rays[T], rays[SPLIT],
-                     rays[EPS], 0.0, min(delta0, stretch), rays[OUT], False, pk, ids, pts, vs,
-                     tmp, vstack, pstack)
+            ln = specialize(prog, lo, hi, out, work)
+            run = (out[0][:ln], prog[1], out[1][:ln], out[2][:ln])
+        trace_packet(run, (SO, SD), n, (rays[T], rays[SPLIT]), (rays[EPS], 0.0),
+                     min(delta0, stretch), rays[OUT], False, (pk, ids, rows), st)
         for k in range(n):
             if rays[OUT, k] >= 0.0:
                 rays[REACHED, k] = 0.0
         stretch *= 2.0
 
 
-@kernel(inline="always")
-def _hits_program(code, params, boxes, lips, n, rays, O, D, spec):
-    """The program specialised to the box around the packet's hits (in ``spec``'s buffers), as
-    (code, boxes, lips) views; empty for a long program (:data:`STRETCH_MIN`) or no hits.  The
+@kernel
+def _hits_program(prog, n, packet):
+    """The program specialised to the box around the packet's hits (in the buffers of its
+    ``spec``); empty for a long program (:data:`STRETCH_MIN`) or no hits.  The
     cone's own program spans its whole stretch in depth, so it keeps many primitives the hits
     are far from (whorl126: its hits' field, gradient and colour took a fifth of the render); a
     long program costs more to specialise than its hits' evaluations would save."""
-    oc, ob, ol, work, lo, hi = spec
+    _, rays, O, D, _, _, _, _, _, _, spec, _ = packet
+    out, work, lo, hi = spec
     for r in range(3):
         lo[r], hi[r] = np.inf, -np.inf
     for k in range(n):
@@ -337,43 +339,43 @@ def _hits_program(code, params, boxes, lips, n, rays, O, D, spec):
                 lo[r] = min(lo[r], O[k, r] + t * D[k, r])
                 hi[r] = max(hi[r], O[k, r] + t * D[k, r])
     m = 0
-    if code.shape[0] < STRETCH_MIN and lo[0] <= hi[0]:
-        m = specialize(code, params, boxes, lips, lo, hi, oc, ob, ol, work)
-    return oc[:m], ob[:m], ol[:m]
+    if prog[0].shape[0] < STRETCH_MIN and lo[0] <= hi[0]:
+        m = specialize(prog, lo, hi, out, work)
+    return out[0][:m], prog[1], out[1][:m], out[2][:m]
 
 
 @kernel
-def shade_packet(code, params, boxes, lips, local, llo, lhi, n, lights, lo, hi, shadows, look,
-                 shadow_eps, eps_rel, packet, vstack, pstack):
-    """Linear RGB at the hits of the n camera rays O[k] + t D[k] of a packet, into columns
-    CR, CG, CB of its surface table (``packet``: see ``tiles._packet_scratch``; the hits in its
-    ray table).  ``local = (code, boxes, lips)`` is the program specialised to the box [llo,
-    lhi] the rays crossed: it gives the normals and albedos of the hits it found, and, where
-    the full program is short (:data:`STRETCH_MIN`), carries the shadow rays that start in that
-    box while they stay there; the full program takes them on.  ``look`` (see
-    :data:`AMBIENT` ...): Blinn-Phong lights of angular radius atan(``LIGHT_TAN``) besides the
-    ambient light.  The shadow rays toward each light start just off the surface along the
-    normal (so they cannot re-hit it) and are traced together (:func:`trace_packet`; a long
-    program is specialised to each stretch of them, :func:`_trace_stretches`); those that miss
-    still darken by :func:`penumbra`."""
-    _, rays, O, D, SO, SD, surf, pk, ids, pts, vs, tmp, spec, hits = packet
+def shade_packet(prog, local, n, view, packet, st):
+    """Linear RGB at the hits of the n camera rays O[k] + t D[k] of a packet, into columns CR, CG,
+    CB of its surface table (``packet``: see ``tiles._packet_scratch``; the hits in its ray table;
+    ``view``: see ``tiles.trace_rect``). ``local = (program, llo, lhi)``: the program specialised to
+    the box [llo, lhi] the rays crossed: it gives the normals and albedos of the hits it found, and,
+    where the full program is short (:data:`STRETCH_MIN`), carries the shadow rays that start in
+    that box while they stay there; the full program takes them on. ``look`` (see :data:`AMBIENT`
+    ...): Blinn-Phong lights of angular radius atan(``LIGHT_TAN``) besides the ambient light. The
+    shadow rays toward each light start just off the surface along the normal (so they cannot re-hit
+    it) and are traced together (:func:`trace_packet`; a long program is specialised to each stretch
+    of them, :func:`_trace_stretches`); those that miss still darken by :func:`penumbra`."""
+    _, rays, O, D, SO, SD, surf, pk, ids, rows, _, _ = packet
+    lights, lo, hi, shadows, look = view[1], view[2], view[3], view[7], view[10]
+    shadow_eps, eps_rel = view[13], view[12]
+    lprog, llo, lhi = local
     # a long program's shadow rays take programs of their own from the start (STRETCH_MIN)
-    own = code.shape[0] >= STRETCH_MIN
-    at = _hits_program(code, params, boxes, lips, n, rays, O, D, spec)
+    own = prog[0].shape[0] >= STRETCH_MIN
+    at = _hits_program(prog, n, packet)
     last = -1
     for k in range(n):
         t = rays[HIT, k]
         if t >= 0.0:
             near = at
             if near[0].shape[0] == 0:  # (a long program: the one that found the hit)
-                near = local if rays[INSIDE, k] == 1.0 else (code, boxes, lips)
-            interp.eval_point(near[0], params, near[1], O[k, 0] + t * D[k, 0],
-                              O[k, 1] + t * D[k, 1], O[k, 2] + t * D[k, 2], SHADE, vstack, pstack)
-            _surface(D[k, 0], D[k, 1], D[k, 2], surf, k, last, vstack[0])
+                near = lprog if rays[INSIDE, k] == 1.0 else prog
+            eval_point(near, (O[k, 0] + t * D[k, 0], O[k, 1] + t * D[k, 1],
+                              O[k, 2] + t * D[k, 2], SHADE), st)
+            _surface(D[k, 0], D[k, 1], D[k, 2], surf, k, last, st[0][0])
             last = k
     if look[OCCLUSION] > 0.0:
-        _occlusions(code, params, boxes, local, llo, lhi, n, rays, O, D, look, surf, hits, pts,
-                    vs, tmp)
+        _occlusions(prog, local, n, look, packet)
     for k in range(n):
         if rays[HIT, k] >= 0.0:
             _ambient(look, surf[k])
@@ -407,9 +409,8 @@ def shade_packet(code, params, boxes, lips, local, llo, lhi, n, lights, lo, hi, 
                 rays[T, k], rays[T_END, k] = t0, min(t1, tb)
                 d_local = min(d_local, 0.05 * (tb - t0) + se)
         if shadows and not own:
-            trace_packet(local[0], params, local[1], local[2], SO, SD, n, rays[T],
-                         rays[T_END], rays[EPS], 0.0, d_local, rays[OUT], False, pk, ids, pts,
-                         vs, tmp, vstack, pstack)
+            trace_packet(lprog, (SO, SD), n, (rays[T], rays[T_END]), (rays[EPS], 0.0), d_local,
+                         rays[OUT], False, (pk, ids, rows), st)
         if shadows:
             for k in range(n):  # then on the full program, past the local box
                 if rays[OUT, k] >= 0.0:
@@ -420,15 +421,14 @@ def shade_packet(code, params, boxes, lips, local, llo, lhi, n, lights, lo, hi, 
                     rays[T, k] = max(rays[T0, k], rays[SPLIT, k])
                     rays[T_END, k] = rays[T1, k]
                     d_full = min(d_full, 0.05 * (rays[T1, k] - rays[T, k]) + 2.0 * rays[EPS, k])
-            _trace_stretches(code, params, boxes, lips, n, d_full, packet, vstack, pstack)
+            _trace_stretches(prog, n, d_full, packet, st)
         for k in range(n):
             if rays[REACHED, k] == 0.0 or (shadows and rays[OUT, k] >= 0.0):
                 continue
             lit = 1.0
             if shadows and look[LIGHT_TAN] > 0.0 and pk[RISE, k] > 0.0:
                 tp = pk[PEAK, k]
-                lit = penumbra(code, params, boxes, SO[k, 0] + tp * SD[k, 0],
-                               SO[k, 1] + tp * SD[k, 1], SO[k, 2] + tp * SD[k, 2], tp,
-                               look[LIGHT_TAN], vstack, pstack)
+                lit = penumbra(prog, (SO[k, 0] + tp * SD[k, 0], SO[k, 1] + tp * SD[k, 1],
+                                      SO[k, 2] + tp * SD[k, 2]), tp, look[LIGHT_TAN], st)
             _add_light(lights, j, look, surf[k], SD[k, 0], SD[k, 1], SD[k, 2], D[k, 0], D[k, 1],
                        D[k, 2], lit)

@@ -169,7 +169,6 @@ def render_tile(prog, camera: Camera, lights: list[Light], settings: RenderSetti
 def trace_rect(prog, cam: np.ndarray, lights: np.ndarray, settings: RenderSettings,
                x0: int, y0: int, x1: int, y1: int) -> np.ndarray:
     """:func:`render_tile` on an already packed camera and lights (no argument checks)."""
-    code, params, boxes, lips = prog.arrays
     lo, hi = (np.asarray(b, dtype=np.float64) for b in prog.bounds)
     diag = float(np.linalg.norm(hi - lo))
     s = settings
@@ -181,20 +180,20 @@ def trace_rect(prog, cam: np.ndarray, lights: np.ndarray, settings: RenderSettin
     eye = cam[:3]
     t_near = float(np.linalg.norm(np.maximum(np.maximum(lo - eye, 0.0), eye - hi)))
     t_far = float(np.linalg.norm(np.maximum(np.abs(eye - lo), np.abs(eye - hi))))
+    view = (cam, lights, lo, hi, s.width, s.height, s.samples, s.shadows, bg, bg_bytes,
+            s.packed_look(diag), EPS_SCENE * diag, eps_rel, SHADOW_OFFSET * diag, s.seed, t_near,
+            t_far)
     # Blocks and sub-blocks lie on a grid fixed to the image, not to the rectangle, and their
     # cones always cover the whole grid cell: a pixel's result never depends on the tiling.
     gx0, gy0 = x0 // CONE_SIDE, y0 // CONE_SIDE
     nbx, nby = (x1 - 1) // CONE_SIDE - gx0 + 1, (y1 - 1) // CONE_SIDE - gy0 + 1
-    scratch = (np.empty((prog.depth, COLUMNS)), np.empty((prog.depth, POINT_COLUMNS)))
+    st = (np.empty((prog.depth, COLUMNS)), np.empty((prog.depth, POINT_COLUMNS)))
     # (specialising is never nested: one serves every call; the scratch comes from the
     # kernels' own Python, so that a render loads one kernel, not four: 12-15 ms a command)
-    work = specialize_work.py_func(code)
-    _render_blocks(code, params, boxes, lips, cam, lights, lo, hi, s.width, s.height, s.samples,
-                   s.shadows, bg, bg_bytes, s.packed_look(diag),
-                   EPS_SCENE * diag, eps_rel, SHADOW_OFFSET * diag, s.seed, x0, y0, x1, y1, gx0,
-                   gy0, nbx, nby, t_near, t_far, out, *scratch, *_program_buffers(len(code)),
-                   *_program_buffers(len(code)), np.empty(3), np.empty(3), work,
-                   _packet_scratch(prog.depth, len(code), work))
+    work = specialize_work.py_func(prog.code)
+    buffers = (_program_buffers(len(prog.code)), _program_buffers(len(prog.code)), np.empty(3),
+               np.empty(3), work, _packet_scratch(prog.depth, len(prog.code), work))
+    _render_blocks(prog.arrays, view, (x0, y0, x1, y1, gx0, gy0, nbx, nby), out, buffers, st)
     return out
 
 
@@ -206,16 +205,18 @@ def _program_buffers(n: int) -> tuple:
 def _packet_scratch(depth: int, ncode: int, work: np.ndarray) -> tuple:
     """The scratch of ``_sub_block`` for a cone of n = PACKET_SIDE^2 rays: the pixels' sums
     (n, 4); the ray table (``shade.T`` ...); the camera rays' origins and directions, the shadow
-    rays' (n, 3 each); the surface table (``shade.NX`` ...); :func:`trace_packet`'s; and room for a
-    program of up to ``ncode`` instructions specialised to a box, ``specialize``'s ``work`` and
-    the box; and the occlusion samples of the hits (``shade._occlusions``: which sample each
-    batch lane holds, and their values)."""
+    rays' (n, 3 each); the surface table (``shade.NX`` ...); :func:`trace_packet`'s (its rows,
+    its ids, and ``eval_rows``' (pts, vs, tmp)); room for a program of up to ``ncode``
+    instructions specialised to a box, ``specialize``'s ``work`` and the box; and the occlusion
+    samples of the hits (``shade._occlusions``: which sample each batch lane holds, and their
+    values)."""
     n = PACKET_SIDE * PACKET_SIDE
     return (np.empty((n, 4)), np.empty((10, n)), np.empty((n, 3)), np.empty((n, 3)),
             np.empty((n, 3)), np.empty((n, 3)), np.empty((n, OCC + 1)),
             np.empty((PACKET_ROWS, n)), np.empty((3, n), dtype=np.int64),
-            point_rows.py_func(depth), value_rows.py_func(depth), np.empty((depth, RESULT_COLUMNS)),
-            (*_program_buffers(ncode), work, np.empty(3), np.empty(3)),
+            (point_rows.py_func(depth), value_rows.py_func(depth),
+             np.empty((depth, RESULT_COLUMNS))),
+            (_program_buffers(ncode), work, np.empty(3), np.empty(3)),
             (np.empty(BATCH, dtype=np.int64), np.empty((n, OCCLUSION_SAMPLES))))
 
 
@@ -251,12 +252,13 @@ def _ray(cam, width, height, x, y):
     return dx / n, dy / n, dz / n
 
 
-@kernel(inline="always")
-def _block_start(code, params, boxes, lips, cam, width, height, bx0, by0, bx1, by1, t, t_far,
-                 vstack, pstack):
-    """A depth before which no ray through pixels [bx0, bx1) x [by0, by1) meets the surface
-    (:func:`march_cone` on the cone around them), inf if none of them does; and the cone's unit
-    axis and tan of its half-angle."""
+@kernel
+def _block_start(prog, view, rect, span, st):
+    """A depth in span = (t, t_far) before which no ray through the pixels of rect = (bx0, by0,
+    bx1, by1) meets the surface (:func:`march_cone` on the cone around them), inf if none of
+    them does; and the cone's unit axis and tan of its half-angle."""
+    cam, width, height = view[0], view[4], view[5]
+    bx0, by0, bx1, by1 = rect
     ax, ay, az = _ray(cam, width, height, 0.5 * (bx0 + bx1), 0.5 * (by0 + by1))
     tan_a = 0.0
     for cx in (bx0, bx1):
@@ -265,29 +267,29 @@ def _block_start(code, params, boxes, lips, cam, width, height, bx0, by0, bx1, b
             c = dx * ax + dy * ay + dz * az
             tan_a = max(tan_a, np.sqrt(max(1.0 - c * c, 0.0)) / c)
     tan_a *= 1.000001
-    t = march_cone(code, params, boxes, lips, cam[0], cam[1], cam[2], ax, ay, az, tan_a, t,
-                   t_far, vstack, pstack)
+    t = march_cone(prog, (cam[0], cam[1], cam[2]), (ax, ay, az), tan_a, span[0], span[1], st)
     return t, ax, ay, az, tan_a
 
 
 @kernel
-def _sub_block(code, params, boxes, lips, local, llo, lhi, cam, lights, lo, hi, width, height,
-               samples, shadows, bg, look, eps_abs, eps_rel, shadow_eps, seed, sx0, sy0, sx1,
-               sy1, t_start, t_local, seg0, packet, vstack, pstack):
-    """Trace and shade the pixels [sx0, sx1) x [sy0, sy1) (a cone's), every ray starting at
-    depth t_start (finite): their linear RGB summed over the samples into acc[k, 0:3] and the
-    number of rays that hit into acc[k, 3] (``packet[0]``; k = the pixel's row-major place in
-    the cone; the backdrop ``bg`` where a ray misses).  The rays are traced together
-    (:func:`trace_packet`): up to depth t_local, where they stay in the box [llo, lhi] the
-    program ``local = (code, boxes, lips)`` is specialised to, with first candidate segment
-    ``seg0``, then on the full program; and shaded together (:func:`shade_packet`).  All the
-    cone's pixels are traced and shaded, whatever part of them a tile wants, so no pixel
-    depends on the tiling.  ``packet``: the scratch ``trace_rect`` allocates."""
-    acc, rays, O, D, _, _, surf, pk, ids, pts, vs, tmp, _, _ = packet
+def _sub_block(prog, local, view, cone, packet, st):
+    """Trace and shade the pixels of cone = (sx0, sy0, sx1, sy1, t_start, t_local, seg0) (a
+    cone's), every ray starting at depth t_start (finite): their linear RGB summed over the
+    samples into acc[k, 0:3] and the number of rays that hit into acc[k, 3] (``packet[0]``; k =
+    the pixel's row-major place in the cone; the backdrop where a ray misses).  The rays are
+    traced together (:func:`trace_packet`): up to depth t_local, where they stay in the box
+    [llo, lhi] the program of ``local = (program, llo, lhi)`` is specialised to, with first
+    candidate segment ``seg0``, then on the full program; and shaded together
+    (:func:`shade_packet`).  All the cone's pixels are traced and shaded, whatever part of them
+    a tile wants, so no pixel depends on the tiling.  ``view``: see :func:`trace_rect`;
+    ``packet``: the scratch ``trace_rect`` allocates."""
+    cam, _, lo, hi, width, height, samples, _, bg, _, _, eps_abs, eps_rel, _, seed, _, _ = view
+    sx0, sy0, sx1, sy1, t_start, t_local, seg0 = cone
+    acc, rays, O, D, _, _, surf, pk, ids, rows, _, _ = packet
     nx = sx1 - sx0
     n = nx * (sy1 - sy0)
     m = int(np.ceil(np.sqrt(samples)))
-    rows = (samples + m - 1) // m
+    nrows = (samples + m - 1) // m
     for k in range(n):
         acc[k, 0] = acc[k, 1] = acc[k, 2] = acc[k, 3] = 0.0
     for s in range(samples):
@@ -299,7 +301,7 @@ def _sub_block(code, params, boxes, lips, local, llo, lhi, cam, lights, lo, hi, 
                 v = 0.5
             else:
                 u = (s % m + _uniform(seed, px, py, s, 0)) / m
-                v = (s // m + _uniform(seed, px, py, s, 1)) / rows
+                v = (s // m + _uniform(seed, px, py, s, 1)) / nrows
             O[k, 0], O[k, 1], O[k, 2] = cam[0], cam[1], cam[2]
             D[k, 0], D[k, 1], D[k, 2] = _ray(cam, width, height, px + u, py + v)
             t0, t1 = clip_box(cam[0], cam[1], cam[2], D[k, 0], D[k, 1], D[k, 2], lo, hi,
@@ -309,9 +311,8 @@ def _sub_block(code, params, boxes, lips, local, llo, lhi, cam, lights, lo, hi, 
             pk[LOW, k], pk[RISE, k] = np.inf, 0.0
             if t0 <= t1:
                 delta0 = min(delta0, DELTA0 * (t1 - t0))
-        trace_packet(local[0], params, local[1], local[2], O, D, n, rays[T], rays[T_END],
-                     rays[EPS], eps_rel, delta0 + eps_abs, rays[OUT], True, pk, ids, pts, vs,
-                     tmp, vstack, pstack)
+        trace_packet(local[0], (O, D), n, (rays[T], rays[T_END]), (rays[EPS], eps_rel),
+                     delta0 + eps_abs, rays[OUT], True, (pk, ids, rows), st)
         d_full = np.inf
         for k in range(n):  # rays that got past the local stretch go on on the full program
             rays[HIT, k], rays[INSIDE, k] = rays[OUT, k], 1.0
@@ -320,14 +321,12 @@ def _sub_block(code, params, boxes, lips, local, llo, lhi, cam, lights, lo, hi, 
                 rays[T, k], rays[T_END, k] = max(rays[T0, k], t_local), rays[T1, k]
                 rays[INSIDE, k] = 0.0
                 d_full = min(d_full, DELTA0 * (rays[T1, k] - rays[T, k]))
-        trace_packet(code, params, boxes, lips, O, D, n, rays[T], rays[T_END], rays[EPS],
-                     eps_rel, d_full + eps_abs, rays[OUT], True, pk, ids, pts, vs, tmp, vstack,
-                     pstack)
+        trace_packet(prog, (O, D), n, (rays[T], rays[T_END]), (rays[EPS], eps_rel),
+                     d_full + eps_abs, rays[OUT], True, (pk, ids, rows), st)
         for k in range(n):
             if rays[INSIDE, k] == 0.0:
                 rays[HIT, k] = rays[OUT, k]
-        shade_packet(code, params, boxes, lips, local, llo, lhi, n, lights, lo, hi, shadows,
-                     look, shadow_eps, eps_rel, packet, vstack, pstack)
+        shade_packet(prog, local, n, view, packet, st)
         for k in range(n):
             if rays[HIT, k] < 0.0:
                 for c in range(3):
@@ -339,49 +338,56 @@ def _sub_block(code, params, boxes, lips, local, llo, lhi, cam, lights, lo, hi, 
 
 
 @kernel
-def _localize(code, params, boxes, lips, cam, ax, ay, az, tan_a, t_a, t_b, oc, ob, ol, lo, hi,
-              work):
-    """Specialise the program to the box around the cone (apex: the eye, unit axis a, half-angle
-    atan(tan_a)) between axis depths t_a and t_b; return (code, boxes, lips) views."""
+def _localize(prog, eye, cone, depths, out, box):
+    """Specialise the program to the box around the cone (apex: the eye, cone = (ax, ay, az,
+    tan_a): unit axis a, half-angle atan(tan_a)) between axis depths depths = (t_a, t_b), into
+    the buffers ``out`` (with ``specialize``'s work), the box into box = (lo, hi); return the
+    program (``PROGRAM``: views of the buffers)."""
+    ax, ay, az, tan_a = cone
+    t_a, t_b = depths
+    lo, hi = box
     r = t_b * tan_a
     for k in range(3):
-        a = cam[k] + t_a * (ax, ay, az)[k]
-        b = cam[k] + t_b * (ax, ay, az)[k]
+        a = eye[k] + t_a * (ax, ay, az)[k]
+        b = eye[k] + t_b * (ax, ay, az)[k]
         lo[k] = min(a, b) - r
         hi[k] = max(a, b) + r
-    n = specialize(code, params, boxes, lips, lo, hi, oc, ob, ol, work)
-    return oc[:n], ob[:n], ol[:n]
+    code, work = out
+    n = specialize(prog, lo, hi, code, work)
+    return code[0][:n], prog[1], code[1][:n], code[2][:n]
 
 
 @kernel(nogil=True)
-def _render_blocks(code, params, boxes, lips, cam, lights, lo, hi, width, height, samples,
-                   shadows, bg, bg_bytes, look, eps_abs, eps_rel, shadow_eps, seed, x0, y0, x1,
-                   y1, gx0, gy0, nbx, nby, t_near, t_far, out, vstack, pstack, oc, ob, ol,
-                   boc, bob, bol, rlo, rhi, work, packet):
-    """Pixels [x0, x1) x [y0, y1), on one core without the GIL, on buffers ``trace_rect``
-    allocated: the nbx x nby blocks of CONE_SIDE^2 pixels from block (gx0, gy0), each first
-    marched as one cone, then as cones of PACKET_SIDE^2 pixels (on the program specialised to the
-    block cone's stretch past where it stopped, then on the whole program beyond it); each of those
-    specialises the program to the stretch of its cone just past where it stopped, then traces
-    its rays together there (:func:`_sub_block`).  Compiled without reference counting (like
-    every kernel on the way from here to the field: numba's atomic counts on the shared program
-    arrays cost a quarter of the time with two threads), so nothing here allocates or keeps an
-    array."""
+def _render_blocks(prog, view, tile, out, buffers, st):
+    """Pixels [x0, x1) x [y0, y1) into ``out``, on one core without the GIL, on buffers
+    ``trace_rect`` allocated: tile = (x0, y0, x1, y1, gx0, gy0, nbx, nby), the nbx x nby blocks of
+    CONE_SIDE^2 pixels from block (gx0, gy0), each first marched as one cone, then as cones of
+    PACKET_SIDE^2 pixels (on the program specialised to the block cone's stretch past where it
+    stopped, then on the whole program beyond it); each of those specialises the program to the
+    stretch of its cone just past where it stopped, then traces its rays together there
+    (:func:`_sub_block`).  Compiled without reference counting (like every kernel on the way
+    from here to the field: numba's atomic counts on the shared program arrays cost a quarter
+    of the time with two threads), so nothing here allocates or keeps an array."""
+    cam, width, height, samples, bg_bytes = view[0], view[4], view[5], view[6], view[9]
+    t_near, t_far = view[15], view[16]
+    x0, y0, x1, y1, gx0, gy0, nbx, nby = tile
+    block_buffers, cone_buffers, rlo, rhi, work, packet = buffers
+    eye = (cam[0], cam[1], cam[2])
     for b in range(nbx * nby):
         bx0 = (gx0 + b % nbx) * CONE_SIDE
         by0 = (gy0 + b // nbx) * CONE_SIDE
         bx1 = min(bx0 + CONE_SIDE, width)
         by1 = min(by0 + CONE_SIDE, height)
-        tb, bax, bay, baz, btan = _block_start(code, params, boxes, lips, cam, width, height,
-                                               bx0, by0, bx1, by1, t_near, t_far, vstack,
-                                               pstack)
+        tb, bax, bay, baz, btan = _block_start(prog, view, (bx0, by0, bx1, by1), (t_near, t_far),
+                                               st)
         # the block's cones march first on the program specialised to the block's stretch
         t_blk = tb
-        blk = (code, boxes, lips)
+        blk = prog
         if tb < np.inf:
             t_blk = min(tb + LOCAL_SPAN * tb * btan, t_far)
-            blk = _localize(code, params, boxes, lips, cam, bax, bay, baz, btan,
-                            tb / np.sqrt(1.0 + btan * btan), t_blk, boc, bob, bol, rlo, rhi, work)
+            blk = _localize(prog, eye, (bax, bay, baz, btan),
+                            (tb / np.sqrt(1.0 + btan * btan), t_blk), (block_buffers, work),
+                            (rlo, rhi))
         for sy0 in range(by0, by1, PACKET_SIDE):
             for sx0 in range(bx0, bx1, PACKET_SIDE):
                 sx1 = min(sx0 + PACKET_SIDE, bx1)
@@ -391,26 +397,21 @@ def _render_blocks(code, params, boxes, lips, cam, lights, lo, hi, width, height
                 ts = tb
                 t_local = tb
                 seg0 = np.inf
-                local = (code, boxes, lips)
+                local = prog
                 if tb < np.inf:
-                    ts, ax, ay, az, tan_a = _block_start(blk[0], params, blk[1], blk[2], cam,
-                                                         width, height, sx0, sy0, sx1, sy1, tb,
-                                                         t_blk, vstack, pstack)
+                    rect = (sx0, sy0, sx1, sy1)
+                    ts, ax, ay, az, tan_a = _block_start(blk, view, rect, (tb, t_blk), st)
                     if ts == np.inf and t_blk < t_far:  # past the block's stretch
-                        ts, ax, ay, az, tan_a = _block_start(code, params, boxes, lips, cam,
-                                                             width, height, sx0, sy0, sx1, sy1,
-                                                             t_blk, t_far, vstack, pstack)
+                        ts, ax, ay, az, tan_a = _block_start(prog, view, rect, (t_blk, t_far), st)
                     if ts < np.inf:
                         t_local = ts + LOCAL_SPAN * ts * tan_a
                         seg0 = PIXEL_SPAN * ts * tan_a
-                        local = _localize(code, params, boxes, lips, cam, ax, ay, az, tan_a,
-                                          ts / np.sqrt(1.0 + tan_a * tan_a), t_local, oc, ob,
-                                          ol, rlo, rhi, work)
+                        local = _localize(prog, eye, (ax, ay, az, tan_a),
+                                          (ts / np.sqrt(1.0 + tan_a * tan_a), t_local),
+                                          (cone_buffers, work), (rlo, rhi))
                 if ts < np.inf:
-                    _sub_block(code, params, boxes, lips, local, rlo, rhi, cam, lights, lo, hi,
-                               width, height, samples, shadows, bg, look, eps_abs, eps_rel,
-                               shadow_eps, seed, sx0, sy0, sx1, sy1, ts, t_local, seg0, packet,
-                               vstack, pstack)
+                    _sub_block(prog, (local, rlo, rhi), view,
+                               (sx0, sy0, sx1, sy1, ts, t_local, seg0), packet, st)
                 acc = packet[0]
                 for py in range(max(sy0, y0), min(sy1, y1)):
                     for px in range(max(sx0, x0), min(sx1, x1)):

@@ -1,7 +1,7 @@
 """Ray-surface intersection by segment tracing (Galin, Guerin, Paris, Peytavie, CGF 2020).
 
 Along a ray p(t) = o + t d the tracer keeps a candidate segment [t, t + delta].  The engine bounds
-the field's derivative along the segment (``interp.lipschitz_segment``: the gradient bound over
+the field's derivative along the segment (``bounds.lipschitz_segment``: the gradient bound over
 the segment's box, and for point primitives the directional bound, small where the ray passes a
 primitive sideways).  With that local Lipschitz bound L, the field cannot reach the iso-value 0.5
 before t + (0.5 - f(t)) / L, so that step is safe, and so is every further step of that kind
@@ -19,16 +19,18 @@ whole cone of camera rays at once, so a block of pixels skips empty space togeth
 :func:`trace_packet` traces the rays of such a block together: one bound serves them all, and
 each step evaluates all their points in one batch.
 
-All kernels take the program arrays ``code, params, boxes, lips`` of ``Program.arrays`` and the
-per-thread scratch of ``interp.scratch``.
+All kernels take the program bundle ``prog = (code, params, boxes, lips)`` of ``Program.arrays``,
+a ray as ``(ox, oy, oz, dx, dy, dz)`` (rays of a packet as arrays ``(O, D)``) and the per-thread
+stacks ``st`` of ``point.scratch``.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..engine import interp
 from ..engine.batch import eval_rows
+from ..engine.bounds import bound_box_at, bounds_use_values, lipschitz_box, lipschitz_segment
+from ..engine.point import eval_point, scratch
 from ..nodes.layout import VALUE
 from ..nodes.node import ISO
 from ..runtime.jit import kernel
@@ -101,14 +103,15 @@ def _located(ta, fa, tb, fb, f, tol):
 
 
 @kernel(inline="always")
-def _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, ta, fa, tb, fb, tol, vstack, pstack):
-    """Root of f - ISO in [ta, tb] with fa < 0 <= fb (Illinois regula falsi), stopping once
-    the secant slope puts the root within tol of the estimate."""
+def _refine(prog, ray, bracket, tol, st):
+    """Root of f - ISO along ``ray`` in the bracket (ta, fa, tb, fb), fa < 0 <= fb (Illinois
+    regula falsi), stopping once the secant slope puts the root within tol of the estimate."""
+    ox, oy, oz, dx, dy, dz = ray
+    ta, fa, tb, fb = bracket
     side = 0
     for _ in range(REFINE_ITERS):
         t = _estimate(ta, fa, tb, fb)
-        f = interp.eval_point(code, params, boxes, ox + t * dx, oy + t * dy, oz + t * dz, 0,
-                               vstack, pstack) - ISO
+        f = eval_point(prog, (ox + t * dx, oy + t * dy, oz + t * dz, VALUE), st) - ISO
         if _located(ta, fa, tb, fb, f, tol):
             return t
         ta, fa, tb, fb, side = _narrow(ta, fa, tb, fb, side, t, f)
@@ -118,20 +121,22 @@ def _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, ta, fa, tb, fb, tol, vs
 
 
 @kernel
-def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, eps_rel,
-          delta0, vstack, pstack):
-    """First t in [t0, t1] where the field reaches ISO along the unit-direction ray, or -1 (a
-    ray that starts inside, f >= ISO at t0, hits at t0).
-    ``eps_abs + eps_rel * t`` is the smallest step.  One Lipschitz bound serves every step
-    inside its candidate segment, unless the steps it allows are short next to what is left of
-    the segment (the bound is loose there): then a shorter segment takes a new bound.
+def trace(prog, ray, span, steps, delta0, st):
+    """First t in span = [t0, t1] where the field reaches ISO along the unit-direction ray, or -1
+    (a ray that starts inside, f >= ISO at t0, hits at t0).
+    ``eps_abs + eps_rel * t`` is the smallest step, steps = (eps_abs, eps_rel).  One Lipschitz
+    bound serves every step inside its candidate segment, unless the steps it allows are short
+    next to what is left of the segment (the bound is loose there): then a shorter segment takes
+    a new bound.
     """
-    values = interp.bounds_use_values(code)
+    ox, oy, oz, dx, dy, dz = ray
+    t0, t1 = span
+    eps_abs, eps_rel = steps
+    values = bounds_use_values(prog[0])
     t = t0
     delta = delta0
-    f, lam, below, _ = interp.lipschitz_segment(code, params, boxes, lips, ox + t * dx,
-                                                oy + t * dy, oz + t * dz, dx, dy, dz,
-                                                min(delta, t1 - t), values, vstack, pstack)
+    f, lam, below, _ = lipschitz_segment(prog, (ox + t * dx, oy + t * dy, oz + t * dz),
+                                         (dx, dy, dz), min(delta, t1 - t), values, st)
     f -= ISO
     if f >= 0.0:
         return t
@@ -150,19 +155,14 @@ def trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, ep
             new_segment = tn >= te or te - tn > REBOUND * last
             if new_segment:
                 delta = SEGMENT_GROWTH * (tn - ts) if tn >= te else GROWTH * last
-                fn, lam, below, _ = interp.lipschitz_segment(code, params, boxes, lips,
-                                                             ox + tn * dx, oy + tn * dy,
-                                                             oz + tn * dz, dx, dy, dz,
-                                                             min(delta, t1 - tn), values, vstack,
-                                                             pstack)
+                fn, lam, below, _ = lipschitz_segment(
+                    prog, (ox + tn * dx, oy + tn * dy, oz + tn * dz), (dx, dy, dz),
+                    min(delta, t1 - tn), values, st)
             else:
-                fn = interp.eval_point(code, params, boxes, ox + tn * dx, oy + tn * dy,
-                                       oz + tn * dz, VALUE, vstack, pstack)
+                fn = eval_point(prog, (ox + tn * dx, oy + tn * dy, oz + tn * dz, VALUE), st)
             fn -= ISO
             if fn >= 0.0:
-                t_hit = _refine(code, params, boxes, ox, oy, oz, dx, dy, dz, t, f, tn, fn,
-                                ROOT_TOL * eps, vstack, pstack)
-                return t_hit
+                return _refine(prog, ray, (t, f, tn, fn), ROOT_TOL * eps, st)
             t = tn
             f = fn
             if new_segment:
@@ -183,31 +183,32 @@ F, TN, LAST, TS, TE, LOW, RISE, PEAK, FB, SIDE, TOL = range(11)
 PACKET_ROWS = TOL + 1
 
 
-@kernel(inline="always")
-def _packet_field(code, params, boxes, O, D, at, ids, m, pts, vs, tmp, vstack, pstack):
-    """The field at O[k] + at[k] D[k] for the m rays k = ids[:m], into vs[0, :m]: one batch,
-    or ray by ray when they are fewer than ``PACKET_MIN`` (a batch computes whole vector
-    groups)."""
+@kernel
+def _packet_field(prog, rays, at, ids, m, rows, st):
+    """The field at O[k] + at[k] D[k] for the m rays k = ids[:m] of rays = (O, D), into
+    vs[0, :m] of rows = (pts, vs, tmp): one batch (``batch.eval_rows``), or ray by ray when
+    they are fewer than ``PACKET_MIN`` (a batch computes whole vector groups)."""
+    O, D = rays
+    pts, vs = rows[0], rows[1]
     if m < PACKET_MIN:
         for j in range(m):
             k = ids[j]
-            vs[0, j] = interp.eval_point(code, params, boxes, O[k, 0] + at[k] * D[k, 0],
-                                         O[k, 1] + at[k] * D[k, 1], O[k, 2] + at[k] * D[k, 2],
-                                         0, vstack, pstack)
+            vs[0, j] = eval_point(prog, (O[k, 0] + at[k] * D[k, 0], O[k, 1] + at[k] * D[k, 1],
+                                         O[k, 2] + at[k] * D[k, 2], VALUE), st)
         return
     for j in range(m):
         k = ids[j]
         for r in range(3):
             pts[0, r, j] = O[k, r] + at[k] * D[k, r]
-    eval_rows(code, params, boxes, 0, code.shape[0], pts, m, vs, tmp)
+    eval_rows(prog, m, rows)
 
 
-@kernel(inline="always")
-def _refine_packet(code, params, boxes, O, D, hits, h, t, out, pk, pts, vs, tmp, vstack,
-                   pstack):
+@kernel
+def _refine_packet(prog, rays, hits, h, t, out, pk, rows, st):
     """:func:`_refine` for the rays k = hits[:h] together, one batch per iteration: ray k's
     bracket is [t[k], out[k]], with the field minus ISO pk[F, k] and pk[FB, k] there and
     tolerance pk[TOL, k]; its root goes to out[k]."""
+    vs = rows[1]
     for j in range(h):
         pk[SIDE, hits[j]] = 0.0
     for _ in range(REFINE_ITERS):
@@ -216,8 +217,7 @@ def _refine_packet(code, params, boxes, O, D, hits, h, t, out, pk, pts, vs, tmp,
         for j in range(h):
             k = hits[j]
             pk[TN, k] = _estimate(t[k], pk[F, k], out[k], pk[FB, k])
-        _packet_field(code, params, boxes, O, D, pk[TN], hits, h, pts, vs, tmp, vstack,
-                      pstack)
+        _packet_field(prog, rays, pk[TN], hits, h, rows, st)
         b = 0
         for j in range(h):
             k = hits[j]
@@ -281,27 +281,32 @@ def _cone(D, act, m):
 
 
 @kernel
-def trace_packet(code, params, boxes, lips, O, D, n, t, t_end, eps, eps_rel, delta0, out,
-                 refine, pk, ids, pts, vs, tmp, vstack, pstack):
-    """Segment tracing of the rays O[k] + t D[k], k < n (unit directions), together, each over
-    [t[k], t_end[k]] (none where t[k] > t_end[k]): out[k] is its first hit, or -1 with t[k] where it
-    stopped (t_end[k] if it got there); the hits are located to ``ROOT_TOL`` of their smallest
-    step where ``refine`` (all together at the end, :func:`_refine_packet`), else out[k] is a point
-    past the hit where the field is at least ISO (a shadow ray needs no more; t[k] of a ray that hit
-    is left anywhere before its hit); the field's lowest value, largest rise and where it peaked go
-    on in ``pk`` (:data:`LOW` ...).  Each ray steps as :func:`trace` does (never less than eps[k] +
+def trace_packet(prog, rays, n, span, steps, delta0, out, refine, scratch, st):
+    """Segment tracing of the rays O[k] + t D[k], k < n (unit directions, rays = (O, D)), together,
+    each over [t[k], t_end[k]] (span = (t, t_end); none where t[k] > t_end[k]), the smallest step
+    eps[k] + eps_rel t (steps = (eps, eps_rel)): out[k] is its first hit, or -1 with t[k] where it
+    stopped (t_end[k] if it got there); the hits are located to ``ROOT_TOL`` of their smallest step
+    where ``refine`` (all together at the end, :func:`_refine_packet`), else out[k] is a point past
+    the hit where the field is at least ISO (a shadow ray needs no more; t[k] of a ray that hit is
+    left anywhere before its hit); the field's lowest value, largest rise and where it peaked go on
+    in ``pk`` (:data:`LOW` ...). Each ray steps as :func:`trace` does (never less than eps[k] +
     eps_rel t), but one bound serves them all: over the box around every ray's candidate segment
     (value-aware at one of their points where the root is CSG; else a bound on how fast the field
     rises along the cone of their directions, which leaves out the primitives they all move away
     from), and each step evaluates the new points of all the rays in one batch (``batch.eval_rows``:
-    SIMD over rays).  A segment ends for all once every ray has crossed it (the next is
+    SIMD over rays). A segment ends for all once every ray has crossed it (the next is
     ``SEGMENT_GROWTH`` times the longest crossing), or once some ray's steps are short next to what
-    is left of it (the next is ``GROWTH`` times the shortest step).  Where the bound is 0, or the
+    is left of it (the next is ``GROWTH`` times the shortest step). Where the bound is 0, or the
     bound pass proves the field below ISO all over the box, the rays cross their segments in one
     step (without evaluating the field where it is the same all over the box: no support meets it).
-    Scratch: pk (PACKET_ROWS, n) floats, ids (3, n) ints; pts, vs, tmp as ``eval_rows`` takes
-    them (n at most their columns)."""
-    values = interp.bounds_use_values(code)
+    Scratch = (pk, ids, rows): pk (PACKET_ROWS, n) floats, ids (3, n) ints; rows = (pts, vs, tmp) as
+    ``eval_rows`` takes them (n at most their columns)."""
+    O, D = rays
+    t, t_end = span
+    eps, eps_rel = steps
+    pk, ids, rows = scratch
+    vs = rows[1]
+    values = bounds_use_values(prog[0])
     act, mov, hits = ids[0], ids[1], ids[2]
     h = 0
     m = 0
@@ -310,7 +315,7 @@ def trace_packet(code, params, boxes, lips, O, D, n, t, t_end, eps, eps_rel, del
         if t[k] <= t_end[k]:
             act[m] = k
             m += 1
-    _packet_field(code, params, boxes, O, D, t, act, m, pts, vs, tmp, vstack, pstack)
+    _packet_field(prog, rays, t, act, m, rows, st)
     a = 0
     for j in range(m):
         k = act[j]
@@ -336,11 +341,11 @@ def trace_packet(code, params, boxes, lips, O, D, n, t, t_end, eps, eps_rel, del
                 lox, loy, loz = min(lox, x), min(loy, y), min(loz, z)
                 hix, hiy, hiz = max(hix, x), max(hiy, y), max(hiz, z)
         k = act[0]
-        _, lam, below, _ = interp.bound_box_at(code, params, boxes, lips, lox, loy, loz, hix,
-                                               hiy, hiz, O[k, 0] + t[k] * D[k, 0],
-                                               O[k, 1] + t[k] * D[k, 1],
-                                               O[k, 2] + t[k] * D[k, 2], ax, ay, az, spread,
-                                               values, vstack, pstack)
+        _, lam, below, _ = bound_box_at(
+            prog, (lox, loy, loz, hix, hiy, hiz), (O[k, 0] + t[k] * D[k, 0],
+                                                   O[k, 1] + t[k] * D[k, 1],
+                                                   O[k, 2] + t[k] * D[k, 2]),
+            (ax, ay, az, spread), values, st)
         if lam == 0.0 and below == np.inf:  # the field is the same all over the box
             for j in range(a):
                 k = act[j]
@@ -363,8 +368,7 @@ def trace_packet(code, params, boxes, lips, O, D, n, t, t_end, eps, eps_rel, del
                     mv += 1
             if mv == 0:
                 break
-            _packet_field(code, params, boxes, O, D, pk[TN], mov, mv, pts, vs, tmp, vstack,
-                          pstack)
+            _packet_field(prog, rays, pk[TN], mov, mv, rows, st)
             for j in range(mv):
                 k = mov[j]
                 fn = vs[0, j] - ISO
@@ -391,12 +395,11 @@ def trace_packet(code, params, boxes, lips, O, D, n, t, t_end, eps, eps_rel, del
             for j in range(a):
                 delta = max(delta, SEGMENT_GROWTH * (t[act[j]] - pk[TS, act[j]]))
     if refine:
-        _refine_packet(code, params, boxes, O, D, hits, h, t, out, pk, pts, vs, tmp, vstack,
-                       pstack)
+        _refine_packet(prog, rays, hits, h, t, out, pk, rows, st)
 
 
 @kernel
-def march_cone(code, params, boxes, lips, ex, ey, ez, ax, ay, az, tan_a, t, t1, vstack, pstack):
+def march_cone(prog, eye, axis, tan_a, t, t1, st):
     """Segment tracing for a whole cone of rays (apex at the eye, unit axis a, half-angle
     atan(tan_a)): the largest axis depth reached with the cone proven free of surface, or inf if
     the cone gets past t1 untouched.
@@ -407,7 +410,9 @@ def march_cone(code, params, boxes, lips, ex, ey, ez, ax, ay, az, tan_a, t, t1, 
     f(t) + L (step + (t + step) tan_a) < ISO.  Every ray in the cone may start at the returned
     depth (its own parameter is never less than its axis depth).
     """
-    values = interp.bounds_use_values(code)
+    ex, ey, ez = eye
+    ax, ay, az = axis
+    values = bounds_use_values(prog[0])
     delta = 0.05 * (t1 - t) + 1e-12
     while t < t1:
         te = min(t + delta, t1)
@@ -416,17 +421,15 @@ def march_cone(code, params, boxes, lips, ex, ey, ez, ax, ay, az, tan_a, t, t1, 
         qx, qy, qz = ex + te * ax, ey + te * ay, ez + te * az
         lox, loy, loz = min(px, qx) - r, min(py, qy) - r, min(pz, qz) - r
         hix, hiy, hiz = max(px, qx) + r, max(py, qy) + r, max(pz, qz) + r
+        box = (lox, loy, loz, hix, hiy, hiz)
         if values:
-            _, lam, below, _ = interp.bound_box_at(code, params, boxes, lips, lox, loy, loz, hix,
-                                                   hiy, hiz, px, py, pz, 0.0, 0.0, 0.0, -1.0,
-                                                   True, vstack, pstack)
+            _, lam, below, _ = bound_box_at(prog, box, (px, py, pz), (0.0, 0.0, 0.0, -1.0),
+                                            True, st)
         else:  # the plain bound, and the field only where it is needed (the bound is not 0)
-            lam = interp.lipschitz_box(code, params, boxes, lips, lox, loy, loz, hix, hiy, hiz,
-                                       vstack)
+            lam = lipschitz_box(prog, box, st)
             below = 0.0
             if lam > 0.0:
-                below = (ISO - interp.eval_point(code, params, boxes, px, py, pz, VALUE, vstack,
-                                                 pstack)) / lam
+                below = (ISO - eval_point(prog, (px, py, pz, VALUE), st)) / lam
         step = te - t
         if lam > 0.0:
             step = min(step, (below - t * tan_a) / (1.0 + tan_a))
@@ -438,11 +441,13 @@ def march_cone(code, params, boxes, lips, ex, ey, ez, ax, ay, az, tan_a, t, t1, 
 
 
 @kernel(nrt=True, nogil=True)
-def intersect_rays(start, stop, code, params, boxes, lips, depth, origins, directions, lo, hi,
-                   tmax, eps_abs, out):
-    """First hit distance of rays start..stop - 1 into out, NaN on a miss (directions need not be
-    unit; t is in units of |d|)."""
-    vstack, pstack = interp.scratch(depth)
+def intersect_rays(start, stop, prog, depth, rays, bounds, tmax, eps_abs, out):
+    """First hit distance of rays start..stop - 1 of rays = (origins, directions) into out, NaN
+    on a miss (directions need not be unit; t is in units of |d|); bounds = (lo, hi), the
+    scene's box."""
+    origins, directions = rays
+    lo, hi = bounds
+    st = scratch(depth)
     for i in range(start, stop):
         out[i] = np.nan
         dx, dy, dz = directions[i, 0], directions[i, 1], directions[i, 2]
@@ -454,7 +459,7 @@ def intersect_rays(start, stop, code, params, boxes, lips, depth, origins, direc
         t0, t1 = clip_box(ox, oy, oz, dx, dy, dz, lo, hi, 0.0, tmax[i] * norm)
         if t0 > t1:
             continue
-        t = trace(code, params, boxes, lips, ox, oy, oz, dx, dy, dz, t0, t1, eps_abs, 0.0,
-                  0.05 * (t1 - t0) + eps_abs, vstack, pstack)
+        t = trace(prog, (ox, oy, oz, dx, dy, dz), (t0, t1), (eps_abs, 0.0),
+                  0.05 * (t1 - t0) + eps_abs, st)
         if t >= 0.0:
             out[i] = t / norm

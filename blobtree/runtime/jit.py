@@ -27,6 +27,8 @@ from numba.core import event, types
 from numba.core.caching import FunctionCache
 from numba.core.runtime import rtsys
 
+from .linked import Linked, register_cached
+
 _PACKAGE = Path(__file__).resolve().parents[1]
 #: Parts of the package no kernel depends on: code numba never compiles, and the mesher, whose
 #: kernels (:func:`cached`) are keyed on their own source file, as they call no engine kernel.
@@ -53,10 +55,24 @@ class _QuickCache(FunctionCache):
         """numba's, without the refresh: it imports and installs every registry numba has
         (0.25-0.5 s on the first call of a process, SciPy's BLAS check included), which only
         compiling needs, and numba's compiler refreshes before it compiles.  Loading needs
-        only the runtime's symbols (``rtsys``)."""
+        only the runtime's symbols (``rtsys``) and those of the linked kernels
+        (:meth:`_load_overload`)."""
         rtsys.initialize(target_context)
         with self._guard_against_spurious_io_errors():
             return self._load_overload(sig, target_context)
+
+    def _load_overload(self, sig, target_context):
+        """numba's, registering the linked kernels a kernel found in the cache calls by symbol
+        (``runtime.linked``) before it is loaded; where the cache lacks one of them, the kernel
+        is not loaded but compiled again (and the linked kernel with it, as its call is typed):
+        a call to a symbol never registered would jump to nothing.  (``data[0]`` is numba's
+        serialised library: its name, its kind, then its object code first.)"""
+        if not self._enabled:
+            return None
+        data = self._cache_file.load(self._index_key(sig, target_context.codegen()))
+        if data is None or not register_cached(data[0][2][0]):
+            return None
+        return self._impl.rebuild(target_context, data)
 
 
 class _EngineCache(_QuickCache):
@@ -114,6 +130,8 @@ def kernel(fn: Callable | None = None, *, tag: str = "", nrt: bool = False,
 
     def wrap(f: Callable):
         opts = {"error_model": "numpy", **options}
+        if opts.get("inline", "never") == "never":  # (numba's callees inherit the flag)
+            opts.setdefault("forceinline", False)
         if not nrt:
             opts["_nrt"] = False
         dispatcher = numba.njit(**opts)(f)
@@ -123,6 +141,20 @@ def kernel(fn: Callable | None = None, *, tag: str = "", nrt: bool = False,
         return dispatcher
 
     return wrap(fn) if fn is not None else wrap
+
+
+def linked(signature, **options) -> Callable[[Callable], Linked]:
+    """A kernel compiled once on its own with ``signature`` (numba types) and called by symbol
+    from other kernels through its ``.call`` (see ``runtime.linked``): for the program walks,
+    which many kernels call.  Keyed on the whole engine like :func:`kernel`; numpy's error
+    model, no reference counting."""
+
+    def wrap(f: Callable) -> Linked:
+        opts = {"error_model": "numpy", "_nrt": False, **options}
+        return Linked(f, signature, opts, lambda: _LazyCache(lambda: _EngineCache(f, "linked")),
+                      lambda: kernel(f, tag="python"))
+
+    return wrap
 
 
 def _call_template(dispatcher, args, kws):
