@@ -113,16 +113,15 @@ class LiveShell:
         up, along = built.tree.display
         return frame_points(built.points, width / height, view.direction(up, along), up, FOV)
 
-    def picture(self, width: int, height: int, view: View = View(), *, shadows: bool = True,
-                look: str = "studio", samples: int = 1) -> np.ndarray:
-        """The shell seen from ``view``: an (height, width, 3) uint8 image (``bt.render``'s
-        ``shadows``, ``look`` and ``samples``)."""
+    def picture(self, width: int, height: int, view: View = View(), **options: Any
+                ) -> np.ndarray:
+        """The shell seen from ``view``: an (height, width, 3) uint8 image; ``options`` go to
+        :func:`blobtree.render.render` (``shadows``, ``look``, ``samples``, ``background``)."""
         self.timings = {}
         built = self._built((self.spec, self.seed))  # (one spec, though another thread sets)
         camera = self._camera(built, width, height, view)
         t0 = time.perf_counter()
-        img = render(built.prog, width, height, camera=camera, shadows=shadows, look=look,
-                     samples=samples)
+        img = render(built.prog, width, height, camera=camera, **options)
         self.timings["render"] = time.perf_counter() - t0
         return img
 
