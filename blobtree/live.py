@@ -283,10 +283,9 @@ class Explorer:
         """The spec in hand."""
         return self.live.spec
 
-    def _ipython_display_(self) -> None:
-        from IPython.display import display
-
-        display(self.widget)
+    def _repr_mimebundle_(self, **options: Any) -> dict | None:
+        """Shown in a notebook as its widgets."""
+        return self.widget._repr_mimebundle_(**options)
 
     def _changed(self, name: str, value: Any) -> None:
         """A control moved: a new spec, seed or view, drawn at once; a refused value is shown
