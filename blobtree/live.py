@@ -70,7 +70,7 @@ class _Built:
 
 class LiveShell:
     """Pictures of a shell spec as it changes.  :meth:`picture` builds what the spec and seed
-    need (the tree, its program, the points framing it), keeping the last :data:`KEPT` of them,
+    need (the tree, its program, the points framing it), keeping the last ``KEPT`` of them,
     and renders; ``timings`` holds the seconds each part of the last picture took."""
 
     def __init__(self, spec: ShellSpec | Mapping | str | Path = "murex", seed: int = 0) -> None:
@@ -168,7 +168,7 @@ def _controls_of(spec: ShellSpec) -> dict[str, tuple[str, Kind, Any]]:
 
 
 def with_control(spec: ShellSpec, name: str, value: Any) -> ShellSpec:
-    """``spec`` with the control ``name`` (see :func:`_controls_of`) set to ``value``; a
+    """``spec`` with the control ``name`` (a key of ``Explorer.controls``) set to ``value``; a
     ValueError naming the key if the spec refuses it."""
     key, _, index = name.partition("[")
     if key.startswith("spiral."):
