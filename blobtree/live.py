@@ -8,11 +8,12 @@ an editor saves (docs/live.md).
 
 from __future__ import annotations
 
+import contextlib
 import math
 import threading
 import time
 from collections import OrderedDict
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -25,8 +26,9 @@ from .helico import _KINDS as SPIRAL_KINDS
 from .helico import HelicoSpiral
 from .models.spec import FIELDS, SPIRAL_KEYS, Flag, Numbers, ShellSpec, to_toml
 from .output import write_file
-from .render import LOOKS, render
+from .render import LOOKS, _local_tiles, render
 from .render.camera import Camera, frame_points, surface_points
+from .runtime.threads import threads as parallel_threads
 
 #: How far the view turns about the shell axis and tilts toward its apex, in degrees.
 TURN, TILT = Number(-180.0, 180.0), Number(-80.0, 80.0)
@@ -313,9 +315,19 @@ class Explorer:
             self._wanted += 1
             self._cond.notify_all()
 
+    @property
+    def passes(self) -> list[tuple[int, bool]]:
+        """(side, shadows) of the pictures drawn for a change: ``coarse`` without shadow rays
+        at once, then half ``size`` and ``size`` with them once nothing changes."""
+        half = [(self.size // 2, True)] if self.coarse < self.size // 2 else []
+        return [(self.coarse, False), *half, (self.size, True)]
+
+    def _stale(self, generation: int) -> bool:
+        return self._wanted != generation or self._closed
+
     def _draw_loop(self) -> None:
-        """The drawing thread: the latest request coarse at once, then, if nothing changes for
-        ``settle`` seconds, at full size with shadows."""
+        """The drawing thread: the latest change's :attr:`passes`, the sharper ones once nothing
+        has changed for ``settle`` seconds; a change stops the picture being drawn."""
         while True:
             with self._cond:
                 while self._wanted == self._drawn and not self._closed:
@@ -323,31 +335,47 @@ class Explorer:
                 if self._closed:
                     return
                 generation = self._wanted
-            self._draw(self.coarse, shadows=False)
+            for i, (side, shadows) in enumerate(self.passes):
+                if i == 1:
+                    with self._cond:
+                        self._cond.wait_for(lambda g=generation: self._stale(g), self.settle)
+                if self._stale(generation) or not self._draw(side, shadows, generation):
+                    break
             with self._cond:
-                self._cond.wait_for(lambda g=generation: self._wanted != g or self._closed,
-                                    self.settle)
-                if self._wanted != generation or self._closed:
-                    continue
-            self._draw(self.size, shadows=True, generation=generation)
+                if not self._stale(generation) or self._closed:
+                    self._drawn = generation
+                    self._cond.notify_all()
 
-    def _draw(self, size: int, shadows: bool, generation: int | None = None) -> None:
+    def _draw(self, size: int, shadows: bool, generation: int) -> bool:
+        """Draw one pass; False if it is not worth going on (a refused spec, or stale)."""
         from .render.image import encode_png
 
         try:
-            img = self.live.picture(size, size, self.view, shadows=shadows, look=self.look)
+            img = self.live.picture(size, size, self.view, shadows=shadows, look=self.look,
+                                    source=self._tiles(generation))
+        except _Stale:
+            return False
         except ValueError as e:
             self._show_status(f"⚠ {e}")
-        else:
-            self.image.value = encode_png(img)
-            self.pictures += 1
-            t = self.live.timings
-            self._show_status(f"{size}x{size}: " + ", ".join(
-                f"{k} {v:.2f} s" for k, v in t.items()))
-        if generation is not None:
-            with self._cond:
-                self._drawn = generation
-                self._cond.notify_all()
+            return False
+        self.image.value = encode_png(img)
+        self.pictures += 1
+        self._show_status(f"{size}x{size}: " + ", ".join(
+            f"{k} {v:.2f} s" for k, v in self.live.timings.items()))
+        return True
+
+    def _tiles(self, generation: int) -> Callable[..., Iterator]:
+        """``render``'s tile source: this machine's, stopped at the first tile after a change
+        (the tiles started finish, the others are dropped)."""
+
+        def source(*job: Any) -> Iterator:
+            with contextlib.closing(_local_tiles(*job, parallel_threads())) as done:
+                for item in done:
+                    if self._stale(generation):
+                        raise _Stale
+                    yield item
+
+        return source
 
     def _show_status(self, text: str) -> None:
         import html
@@ -361,8 +389,8 @@ class Explorer:
             self._show_status(f"⚠ {e}")
 
     def wait(self, timeout: float = 300.0) -> bool:
-        """Wait until the latest change is drawn at full size; False if ``timeout`` seconds
-        passed first."""
+        """Wait until the latest change is drawn at full size (or refused); False if
+        ``timeout`` seconds passed first."""
         with self._cond:
             return self._cond.wait_for(lambda: self._drawn == self._wanted, timeout)
 
@@ -383,6 +411,10 @@ class Explorer:
         self.widget.close()
 
 
+class _Stale(Exception):
+    """A picture given up: the controls changed while it was drawn."""
+
+
 def _color_picker() -> type:
     import ipywidgets
 
@@ -394,8 +426,9 @@ def explore(spec: ShellSpec | Mapping | str | Path = "murex", seed: int = 0, siz
     """A shell beside controls for its spec, in a notebook: sliders for its numbers (over the
     ranges their kinds allow), menus for its choices, grouped by the spec's tables, and the
     view (turn about the shell axis, tilt toward the apex).  A change draws a coarse picture
-    at once, then a ``size``-pixel studio picture with shadows once nothing has changed for
-    ``settle`` seconds; "save TOML" writes the spec; ``explorer.spec`` is the spec in hand.
+    at once, then, once nothing has changed for ``settle`` seconds, studio pictures with
+    shadows at half ``size`` and at ``size`` pixels (a change stops a picture being drawn);
+    "save TOML" writes the spec; ``explorer.spec`` is the spec in hand.
 
     ``spec``: a shipped shell's name, a path to a TOML spec, its data or a ShellSpec;
     ``options``: ``coarse`` (side of the first picture, 128), ``settle`` (0.25 s), ``path``

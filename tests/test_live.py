@@ -60,6 +60,14 @@ def test_an_unchanged_control_gives_no_new_work(explorer):
     assert explorer.live._kept == built
 
 
+def test_a_picture_stops_when_the_controls_change(explorer):
+    from blobtree.live import _Stale
+
+    with pytest.raises(_Stale):  # a source for an older change stops at its first tile
+        explorer.live.picture(48, 48, source=explorer._tiles(explorer._wanted - 1))
+    explorer.live.picture(48, 48, source=explorer._tiles(explorer._wanted))
+
+
 def test_the_view_turns_without_rebuilding_the_shell(explorer):
     before = explorer.image.value
     explorer.controls["turn"].value = 90.0
