@@ -6,9 +6,10 @@ Warm (the kernels loaded, one picture drawn first), for each change below, the b
 ``--rounds``: the parts of the first picture (``--coarse`` pixels square, no shadow rays, as
 the explorer draws while a control moves): building the tree, compiling its program, framing
 it (the inside points the camera fits), rendering (tracing, with the per-tile specialising of
-the program to each tile's frustum inside it); then the full studio picture (``--size``
-pixels, shadows), from the same tree.  A turn of the view only renders.  The targets of
-docs/live.md: the first picture within 0.3 s of a change, the studio picture within 1.5 s.
+the program to each tile's frustum inside it); then the studio pictures (shadows) the explorer
+draws next, at half ``--size`` and at ``--size`` pixels, from the same tree.  A turn of the
+view only renders.  The targets of docs/live.md: the first picture within 0.3 s of a change,
+the studio picture within 1.5 s.
 """
 
 from __future__ import annotations
@@ -51,7 +52,7 @@ def main() -> None:
     print(f"{cpu_name()}; {args.spec}; first picture {args.coarse}x{args.coarse} without "
           f"shadows, studio {args.size}x{args.size}; best of {args.rounds}, seconds")
     print(f"{'change':<28}{'tree':>7}{'program':>9}{'framing':>9}{'render':>8}{'first':>8}"
-          f"{'studio':>8}{'total':>8}")
+          f"{'half':>8}{'studio':>8}{'total':>8}")
     for name, value in CHANGES:
         best: dict[str, float] = {}
         for r in range(args.rounds):
@@ -60,13 +61,16 @@ def main() -> None:
             live.set(spec)
             live.picture(args.coarse, args.coarse, shadows=False)
             t = dict(live.timings, first=sum(live.timings.values()))
+            live.picture(args.size // 2, args.size // 2)
+            t["half"] = live.timings["render"]
             live.picture(args.size, args.size)
             t["studio"] = live.timings["render"]
-            t["total"] = t["first"] + t["studio"]
+            t["total"] = t["first"] + t["half"] + t["studio"]
             best = t if not best or t["total"] < best["total"] else best
         print(f"{name + ' = ' + format(value, 'g'):<28}{best['tree']:>7.3f}"
               f"{best['program']:>9.3f}{best['framing']:>9.3f}{best['render']:>8.3f}"
-              f"{best['first']:>8.3f}{best['studio']:>8.3f}{best['total']:>8.3f}")
+              f"{best['first']:>8.3f}{best['half']:>8.3f}{best['studio']:>8.3f}"
+              f"{best['total']:>8.3f}")
     live.set(base)
     live.picture(args.coarse, args.coarse, shadows=False)  # built again: turns only render
     for label, shadows in (("turn 30 (first)", False), ("turn 30 (studio)", True)):
