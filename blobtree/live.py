@@ -1,7 +1,8 @@
 """Modelling live: a shell drawn again as its spec changes, coarse first, then sharper.
 
 :class:`LiveShell` keeps the trees, programs and framing points of the specs it drew last, so
-that going back to a spec, or turning the view, only renders; :func:`explore` puts it beside
+that going back to a spec, or turning the view, only renders, and compiles a changed spec's
+tree copying the instructions of the subtrees the change left alone; :func:`explore` puts it beside
 ipywidgets controls in a notebook, and ``blobtree watch`` (``cli/watch_cmd.py``) beside a file
 an editor saves (docs/live.md).
 """
@@ -22,6 +23,7 @@ import numpy as np
 
 from . import models
 from .checks import Choice, Integer, Kind, Number, short_repr
+from .engine.program import Reuse, compile_tree
 from .helico import _KINDS as SPIRAL_KINDS
 from .helico import HelicoSpiral
 from .models.spec import FIELDS, SPIRAL_KEYS, Flag, Numbers, ShellSpec, to_toml
@@ -79,6 +81,9 @@ class LiveShell:
         self.spec = models.load_spec(spec)
         self.seed = Integer(0, 2**32 - 1).check("seed", seed)
         self._kept: OrderedDict[tuple[ShellSpec, int], _Built] = OrderedDict()
+        #: the subtrees of the last program compiled, copied into the next (a change
+        #: compiles only the parts it touches)
+        self._reuse = Reuse()
         self.timings: dict[str, float] = {}
 
     def set(self, spec: ShellSpec | None = None, seed: int | None = None) -> bool:
@@ -98,7 +103,7 @@ class LiveShell:
         t0 = time.perf_counter()
         tree = models.shell(*key)
         t1 = time.perf_counter()
-        prog = tree.program()
+        prog = compile_tree(tree, self._reuse)
         t2 = time.perf_counter()
         points = surface_points(prog)
         self.timings.update(tree=t1 - t0, program=t2 - t1, framing=time.perf_counter() - t2)

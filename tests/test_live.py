@@ -137,6 +137,22 @@ def test_live_shell_keeps_what_it_built():
     assert live.timings["tree"] == live.timings["program"] == 0.0
 
 
+def test_a_program_compiled_with_reuse_is_the_one_compiled_afresh():
+    from blobtree.engine.program import Reuse, compile_tree
+
+    textured = replace(SMALL, texture="paper")  # with images, whose places copies rely on
+    reuse = Reuse()
+    compile_tree(bt.models.shell(textured), reuse)
+    for spec, seed in ((replace(textured, spine_length=1.0), 0),
+                       (replace(textured, point_radius=1.3), 0),
+                       (replace(textured, spine_length=1.0), 1)):  # other images: no copies
+        reused = compile_tree(bt.models.shell(spec, seed), reuse)
+        fresh = compile_tree(bt.models.shell(spec, seed))
+        for name in ("code", "params", "boxes", "lips"):
+            assert np.array_equal(getattr(reused, name), getattr(fresh, name)), name
+        assert reused.depth == fresh.depth and len(reuse.spans) > 10
+
+
 # ----- blobtree watch ------------------------------------------------------------------------
 def _write(path: Path, text: str) -> None:
     path.write_text(text)
