@@ -11,6 +11,7 @@ from . import engine, models, texture
 from .api import polygonize, preview, render
 from .engine import Program, compile_tree
 from .io import load, save
+from .live import explore
 from .mesh import Mesh
 from .nodes import *  # noqa: F403  (every node type and operator function, see nodes.__all__)
 from .nodes import __all__ as _node_names
@@ -24,6 +25,6 @@ pin_thresholds()  # large arrays reused, not fresh pages each time (blobtree/run
 
 __all__ = [
     *_node_names, "Camera", "Light", "Mesh", "Program", "RenderSettings", "compile_tree",
-    "engine", "load", "models", "polygonize", "preview", "render", "render_tile", "save",
+    "engine", "explore", "load", "models", "polygonize", "preview", "render", "render_tile", "save",
     "save_image", "texture",
 ]

@@ -18,7 +18,7 @@ LAYERS = [
     {"engine"},
     {"render", "mesh", "film"},
     {"distributed"},
-    {"api"},
+    {"api", "live"},
     {"cli"},
 ]
 

@@ -1,5 +1,6 @@
 """The example notebook runs from top to bottom, and nodes and meshes show themselves in it."""
 
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -54,3 +55,24 @@ def test_shown_keeps_the_tree_and_carries_how_to_look_at_it():
         tree.shown(up=(0, 0, 0))
     with pytest.raises(ValueError, match="view"):
         tree.shown(view=(0, float("nan"), 0))
+
+
+LIVE = NOTEBOOK.with_name("live_shell.ipynb")
+
+
+@pytest.mark.slow
+def test_the_live_notebook_shows_the_explorer_and_saves_a_spec(tmp_path):
+    pytest.importorskip("ipywidgets", reason="the test extra installs ipywidgets")
+    import blobtree as bt
+
+    nb = nbformat.read(LIVE, as_version=4)
+    for cell in nb.cells:  # small pictures: the test is about the notebook, not the shell
+        cell.source = cell.source.replace("size=384", "size=64, coarse=32, settle=0.0")
+    nbclient.NotebookClient(nb, timeout=600, kernel_name="python3",
+                            resources={"metadata": {"path": str(tmp_path)}}).execute()
+    shown = [out.get("data", {}) for cell in nb.cells if cell.cell_type == "code"
+             for out in cell.get("outputs", []) if out.output_type == "execute_result"]
+    assert "application/vnd.jupyter.widget-view+json" in shown[0]  # the explorer's widgets
+    assert shown[1]["text/plain"] == "40.0"
+    saved = bt.models.load_spec(tmp_path / "my_murex.toml")
+    assert saved == replace(bt.models.SHELLS["murex"], canal_tilt=40.0)

@@ -22,6 +22,7 @@ from .mesh_cmd import mesh
 from .render_cmd import render
 from .scenes import BUILTIN, resolve_scene, scene_up
 from .view_cmd import view
+from .watch_cmd import watch
 
 #: What a user's mistake raises (bad values, unreadable or unwritable files, scene documents too
 #: deep or too large): reported in one line, never as a traceback.
@@ -138,6 +139,7 @@ main.add_command(grow)
 main.add_command(mesh)
 main.add_command(render)
 main.add_command(view)
+main.add_command(watch)
 
 
 def run() -> None:

@@ -29,7 +29,7 @@ import numpy as np
 from .. import geometry as geo
 from ..fields import FALLOFFS
 from ..nodes.kinds import Operator, Paint, Primitive
-from ..nodes.layout import ARG, GRADIENT, OP, SHADE, SKIP, VALUE
+from ..nodes.layout import ARG, GRADIENT, OFFSET, OP, SHADE, SKIP, VALUE
 from ..nodes.node import ISO, REGISTRY, Node
 from ..nodes.warp import Warp
 from ..runtime.threads import parallel_for
@@ -206,10 +206,25 @@ class Program:
         return out
 
 
+class Reuse:
+    """The instructions of a tree compiled before, by subtree, for :func:`compile_tree` to copy
+    into the next program wherever the same subtree (by structural key) meets the same frame and
+    texture: a spec changed in one part compiles only that part again."""
+
+    def __init__(self) -> None:
+        self.program: Program | None = None
+        self.images: dict[str, int] = {}
+        #: (node key, frame, look) -> (code start, code end, params start, params end, box)
+        self.spans: dict[tuple[str, bytes, int], tuple[int, int, int, int, geo.Box]] = {}
+
+
 class _Emitter:
     """Emits a tree's instructions in postfix order (see the module docstring for the layout)."""
 
     def __init__(self) -> None:
+        self.reuse: Reuse | None = None
+        #: this compile's subtrees by key (see :class:`Reuse`), when there is a Reuse to keep
+        self.spans: dict[tuple[str, bytes, int], tuple[int, int, int, int, geo.Box]] = {}
         self.code: list[list[int]] = []
         #: the instructions' parameters; the images come before them in ``params``
         self.params: list[float] = []
@@ -260,8 +275,28 @@ class _Emitter:
         if first is not None:
             return self.repeat(*first)
         c0, p0 = len(self.code), len(self.params)
-        box = self.emit_new(node, M, look)
+        if self.reuse is None:
+            box = self.emit_new(node, M, look)
+        else:
+            skey = (node.key, key[1], look)
+            before = self.reuse.spans.get(skey)
+            box = self.emit_new(node, M, look) if before is None else self.copy(*before)
+            self.spans[skey] = (c0, len(self.code), self.base + p0,
+                                self.base + len(self.params), box)
         self.emitted[key] = (c0, len(self.code), p0, len(self.params), box)
+        return box
+
+    def copy(self, c0: int, c1: int, p0: int, p1: int, box: geo.Box) -> geo.Box:
+        """Copy instructions c0:c1 and parameters p0:p1 (absolute) of the reused program to
+        the end, moved as :meth:`repeat` moves them (the images lie where they lay)."""
+        prog = self.reuse.program
+        rows = prog.code[c0:c1].copy()
+        rows[:, OFFSET] += self.base + len(self.params) - p0
+        rows[:, SKIP] += len(self.code) - c0
+        self.code.extend(rows.tolist())
+        self.params.extend(prog.params[p0:p1].tolist())
+        self.boxes.extend(prog.boxes[c0:c1])
+        self.lips.extend(prog.lips[c0:c1].tolist())
         return box
 
     def repeat(self, c0: int, c1: int, p0: int, p1: int, box: geo.Box) -> geo.Box:
@@ -442,9 +477,11 @@ def program_of(tree: Node | Program, name: str = "tree") -> Program:
     raise ValueError(f"{name} must be a BlobTree node or a Program, got {type(tree).__name__[:60]}")
 
 
-def compile_tree(tree: Node) -> Program:
+def compile_tree(tree: Node, reuse: Reuse | None = None) -> Program:
     """Flatten ``tree`` into a :class:`Program`; TypeError for a node type without kernels,
-    ValueError for a tree that expands past ``MAX_INSTRUCTIONS``."""
+    ValueError for a tree that expands past ``MAX_INSTRUCTIONS``.  ``reuse``: copy the
+    instructions of the subtrees it holds from the tree compiled with it before (the same
+    program as compiled afresh), then hold this tree's."""
     if not isinstance(tree, Node):
         raise ValueError(f"tree must be a BlobTree node, got {type(tree).__name__[:60]}")
     n = expanded_size(tree)
@@ -457,8 +494,13 @@ def compile_tree(tree: Node) -> Program:
     for node in tree.unique():  # images first, so no subtree's instructions hold one
         if hasattr(node, "image_key"):
             em.image_offset(node)
+    if reuse is not None:  # copies need the images where they were
+        em.reuse = reuse if reuse.program is not None and reuse.images == em.images else Reuse()
     em.emit(_value_root(tree), geo.IDENTITY)
-    return em.program(tree)
+    prog = em.program(tree)
+    if reuse is not None:
+        reuse.program, reuse.images, reuse.spans = prog, dict(em.images), em.spans
+    return prog
 
 
 def _value_root(tree: Node) -> Node:

@@ -1,0 +1,87 @@
+"""Modelling live: seconds from a change of a spec number to the picture, by part.
+
+    python bench/bench_live.py [--spec murex] [--coarse 128] [--size 512] [--rounds 3]
+
+Warm (the kernels loaded, one picture drawn first), for each change below, the best of
+``--rounds``: the parts of the first picture (``--coarse`` pixels square, no shadow rays, as
+the explorer draws while a control moves): building the tree, compiling its program, framing
+it (the inside points the camera fits), rendering (tracing, with the per-tile specialising of
+the program to each tile's frustum inside it); then the studio pictures (shadows) the explorer
+draws next, at half ``--size`` and at ``--size`` pixels, from the same tree.  A turn of the
+view only renders.  The targets of docs/live.md: the first picture within 0.3 s of a change,
+the studio picture within 1.5 s.
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import time
+
+from blobtree.live import LiveShell, View, with_control
+from blobtree.models.spec import load_spec
+
+#: The changes timed: a control and its new value (each builds another tree).
+CHANGES = (("canal.tilt", 50.0), ("bumps.size", 0.2), ("spiral.beta", 24.0),
+           ("whorls.point_radius", 1.3), ("varices.spine_length", 1.0))
+
+
+def cpu_name() -> str:
+    """The processor's model name (Linux), else the platform's word for it."""
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown CPU"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--spec", default="murex")
+    ap.add_argument("--coarse", type=int, default=128)
+    ap.add_argument("--size", type=int, default=512)
+    ap.add_argument("--rounds", type=int, default=3)
+    args = ap.parse_args()
+    base = load_spec(args.spec)
+    live = LiveShell(base)
+    live.picture(args.coarse, args.coarse, shadows=False)  # warm: kernels, caches
+    live.picture(args.size, args.size)
+    print(f"{cpu_name()}; {args.spec}; first picture {args.coarse}x{args.coarse} without "
+          f"shadows, studio {args.size}x{args.size}; best of {args.rounds}, seconds")
+    print(f"{'change':<28}{'tree':>7}{'program':>9}{'framing':>9}{'render':>8}{'first':>8}"
+          f"{'half':>8}{'studio':>8}{'total':>8}")
+    for name, value in CHANGES:
+        best: dict[str, float] = {}
+        for r in range(args.rounds):
+            # a value new each round, so nothing is reused from a round before
+            spec = with_control(base, name, value * (1.0 + 0.001 * r))
+            live.set(spec)
+            live.picture(args.coarse, args.coarse, shadows=False)
+            t = dict(live.timings, first=sum(live.timings.values()))
+            live.picture(args.size // 2, args.size // 2)
+            t["half"] = live.timings["render"]
+            live.picture(args.size, args.size)
+            t["studio"] = live.timings["render"]
+            t["total"] = t["first"] + t["half"] + t["studio"]
+            best = t if not best or t["total"] < best["total"] else best
+        print(f"{name + ' = ' + format(value, 'g'):<28}{best['tree']:>7.3f}"
+              f"{best['program']:>9.3f}{best['framing']:>9.3f}{best['render']:>8.3f}"
+              f"{best['first']:>8.3f}{best['half']:>8.3f}{best['studio']:>8.3f}"
+              f"{best['total']:>8.3f}")
+    live.set(base)
+    live.picture(args.coarse, args.coarse, shadows=False)  # built again: turns only render
+    for label, shadows in (("turn 30 (first)", False), ("turn 30 (studio)", True)):
+        size = args.size if shadows else args.coarse
+        start = time.perf_counter()
+        live.picture(size, size, View(turn=30.0), shadows=shadows)
+        print(f"{label:<28}{'':>33}{time.perf_counter() - start:>8.3f}")
+    start = time.perf_counter()
+    live.picture(args.size, args.size, shadows=False)
+    print(f"{'studio without shadows':<28}{'':>33}{time.perf_counter() - start:>8.3f}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,451 @@
+"""Modelling live: a shell drawn again as its spec changes, coarse first, then sharper.
+
+:class:`LiveShell` keeps the trees, programs and framing points of the specs it drew last, so
+that going back to a spec, or turning the view, only renders, and compiles a changed spec's
+tree copying the instructions of the subtrees the change left alone; :func:`explore` puts it beside
+ipywidgets controls in a notebook, and ``blobtree watch`` (``cli/watch_cmd.py``) beside a file
+an editor saves (docs/live.md).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import threading
+import time
+from collections import OrderedDict
+from collections.abc import Callable, Iterator, Mapping
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from . import models
+from .checks import Choice, Integer, Kind, Number, short_repr
+from .engine.program import Reuse, compile_tree
+from .helico import _KINDS as SPIRAL_KINDS
+from .helico import HelicoSpiral
+from .models.spec import FIELDS, SPIRAL_KEYS, Flag, Numbers, ShellSpec, to_toml
+from .output import write_file
+from .render import LOOKS, _local_tiles, render
+from .render.camera import Camera, frame_points, surface_points
+from .runtime.threads import threads as parallel_threads
+
+#: How far the view turns about the shell axis and tilts toward its apex, in degrees.
+TURN, TILT = Number(-180.0, 180.0), Number(-80.0, 80.0)
+#: Vertical field of view of the pictures, degrees (a shell's own view, as ``render`` frames it).
+FOV = 30.0
+#: Specs whose tree, program and framing points are kept: dragging back costs only a render.
+KEPT = 8
+
+
+@dataclass(frozen=True)
+class View:
+    """Where the shell is seen from: its own view (``look.view``, ``look.up``) turned by
+    ``turn`` degrees about the shell axis, then tilted ``tilt`` degrees toward the apex."""
+
+    turn: float = 0.0
+    tilt: float = 0.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "turn", TURN.check("turn", self.turn))
+        object.__setattr__(self, "tilt", TILT.check("tilt", self.tilt))
+
+    def direction(self, up: tuple, view: tuple) -> tuple[float, ...]:
+        """The direction looked along: ``view`` turned about ``up``, then tilted toward it."""
+        u = np.asarray(up, float) / np.linalg.norm(up)
+        v = np.asarray(view, float) / np.linalg.norm(view)
+        t = math.radians(self.turn)  # Rodrigues' rotation about u
+        v = v * math.cos(t) + np.cross(u, v) * math.sin(t) + u * (u @ v) * (1 - math.cos(t))
+        flat = v - u * (u @ v)  # the tilt is measured from the plane across the axis
+        flat /= np.linalg.norm(flat)
+        a = math.radians(self.tilt) + math.asin(float(np.clip(u @ v, -1.0, 1.0)))
+        a = float(np.clip(a, math.radians(-85.0), math.radians(85.0)))
+        return tuple(float(x) for x in flat * math.cos(a) - u * math.sin(a))
+
+
+@dataclass
+class _Built:
+    tree: Any
+    prog: Any
+    points: np.ndarray
+
+
+class LiveShell:
+    """Pictures of a shell spec as it changes.  :meth:`picture` builds what the spec and seed
+    need (the tree, its program, the points framing it), keeping the last ``KEPT`` of them,
+    and renders; ``timings`` holds the seconds each part of the last picture took."""
+
+    def __init__(self, spec: ShellSpec | Mapping | str | Path = "murex", seed: int = 0) -> None:
+        self.spec = models.load_spec(spec)
+        self.seed = Integer(0, 2**32 - 1).check("seed", seed)
+        self._kept: OrderedDict[tuple[ShellSpec, int], _Built] = OrderedDict()
+        #: the subtrees of the last program compiled, copied into the next (a change
+        #: compiles only the parts it touches)
+        self._reuse = Reuse()
+        self.timings: dict[str, float] = {}
+
+    def set(self, spec: ShellSpec | None = None, seed: int | None = None) -> bool:
+        """Take a new spec and/or seed; True if either differs from the one in hand."""
+        spec = self.spec if spec is None else models.load_spec(spec)
+        seed = self.seed if seed is None else Integer(0, 2**32 - 1).check("seed", seed)
+        changed = (spec, seed) != (self.spec, self.seed)
+        self.spec, self.seed = spec, seed
+        return changed
+
+    def _built(self, key: tuple[ShellSpec, int]) -> _Built:
+        built = self._kept.get(key)
+        if built is not None:
+            self._kept.move_to_end(key)
+            self.timings.update(tree=0.0, program=0.0, framing=0.0)
+            return built
+        t0 = time.perf_counter()
+        tree = models.shell(*key)
+        t1 = time.perf_counter()
+        prog = compile_tree(tree, self._reuse)
+        t2 = time.perf_counter()
+        points = surface_points(prog)
+        self.timings.update(tree=t1 - t0, program=t2 - t1, framing=time.perf_counter() - t2)
+        built = self._kept[key] = _Built(tree, prog, points)
+        while len(self._kept) > KEPT:
+            self._kept.popitem(last=False)
+        return built
+
+    def camera(self, width: int, height: int, view: View = View()) -> Camera:
+        """The camera framing the shell in a width x height picture seen from ``view``."""
+        return self._camera(self._built((self.spec, self.seed)), width, height, view)
+
+    def _camera(self, built: _Built, width: int, height: int, view: View) -> Camera:
+        up, along = built.tree.display
+        return frame_points(built.points, width / height, view.direction(up, along), up, FOV)
+
+    def picture(self, width: int, height: int, view: View = View(), **options: Any
+                ) -> np.ndarray:
+        """The shell seen from ``view``: an (height, width, 3) uint8 image; ``options`` go to
+        :func:`blobtree.render.render` (``shadows``, ``look``, ``samples``, ``background``)."""
+        self.timings = {}
+        built = self._built((self.spec, self.seed))  # (one spec, though another thread sets)
+        camera = self._camera(built, width, height, view)
+        t0 = time.perf_counter()
+        img = render(built.prog, width, height, camera=camera, **options)
+        self.timings["render"] = time.perf_counter() - t0
+        return img
+
+
+# ----- the notebook explorer --------------------------------------------------------------------
+#: Spec keys without a control: the variable-length tables (edit them in the file) and the
+#: view's basis (the view controls turn and tilt about it).
+NO_CONTROL = ("name", "varices.table", "canal_spines.table", "varices.tori", "look.up",
+              "look.view")
+
+
+def slider_range(kind: Number | Integer, value: float) -> tuple[float, float]:
+    """The span of a slider for a value of ``kind``: the kind's whole range when it is narrow
+    (angles, fractions, counts up to 100), else the part of it within a few times the value,
+    where a modeller looks (the rest stays reachable in the file)."""
+    lo, hi = kind.lo, kind.hi
+    if isinstance(kind, Integer):
+        return (lo, hi) if hi - lo <= 100 else (lo, min(hi, max(2 * value, lo + 24)))
+    if hi - lo <= 720.0:
+        return lo, hi
+    span = max(3.0 * abs(value), 1.0)
+    return max(lo, value - span), min(hi, value + span)
+
+
+def _controls_of(spec: ShellSpec) -> dict[str, tuple[str, Kind, Any]]:
+    """Each control's name -> (table, kind, value): a number per slider (a list of numbers
+    gives one per item, ``canal.base[0]``), a colour per picker, a flag per box, a choice per
+    menu."""
+    out: dict[str, tuple[str, Kind, Any]] = {}
+    for key in SPIRAL_KEYS:
+        value = getattr(spec.spiral, key)
+        if value is not None:  # (d_ratio None: computed from Eq. 3)
+            out[f"spiral.{key}"] = ("spiral", SPIRAL_KINDS[key], value)
+    for key, f in FIELDS.items():
+        if key in NO_CONTROL:
+            continue
+        table, kind, value = key.split(".")[0], f.metadata["kind"], getattr(spec, f.name)
+        if isinstance(kind, Numbers):
+            for i, v in enumerate(value):
+                out[f"{key}[{i}]"] = (table, kind.item, v)
+        else:
+            out[key] = (table, kind, value)
+    return out
+
+
+def with_control(spec: ShellSpec, name: str, value: Any) -> ShellSpec:
+    """``spec`` with the control ``name`` (a key of ``Explorer.controls``) set to ``value``; a
+    ValueError naming the key if the spec refuses it."""
+    key, _, index = name.partition("[")
+    if key.startswith("spiral."):
+        return replace(spec, spiral=_spiral_with(spec.spiral, key.split(".")[1], value))
+    if key not in FIELDS or key in NO_CONTROL:
+        raise ValueError(f"control must be one of {sorted(_controls_of(spec))}, got "
+                         f"{short_repr(name)}")
+    f = FIELDS[key]
+    if key == "whorls.count" and isinstance(value, int) and value >= 1:
+        # Table 1 keeps a row per whorl: the last rows dropped, or the last repeated
+        rows = spec.table_1[:value] + spec.table_1[-1:] * (value - len(spec.table_1))
+        return replace(spec, whorls=value, table_1=rows)
+    if index:
+        items = list(getattr(spec, f.name))
+        items[int(index.rstrip("]"))] = value
+        value = tuple(items)
+    return replace(spec, **{f.name: value})
+
+
+def _spiral_with(spiral: HelicoSpiral, key: str, value: Any) -> HelicoSpiral:
+    try:
+        return replace(spiral, **{key: value})
+    except ValueError as e:
+        raise ValueError(f"spiral.{e}") from None
+
+
+def _hex(rgb: tuple) -> str:
+    return "#" + "".join(f"{round(c * 255):02x}" for c in rgb)
+
+
+def _rgb(text: str) -> tuple[float, float, float]:
+    text = text.lstrip("#")
+    return tuple(int(text[i:i + 2], 16) / 255.0 for i in (0, 2, 4))
+
+
+def _widget(widgets: Any, name: str, kind: Kind, value: Any) -> Any:
+    """The ipywidgets control for a value of ``kind``."""
+    label = name.split(".", 1)[-1]
+    style = {"description_width": "9em"}
+    common = dict(description=label, style=style, continuous_update=True,
+                  layout=widgets.Layout(width="26em"))
+    if isinstance(kind, Flag):
+        return widgets.Checkbox(value=value, description=label, style=style)
+    if isinstance(kind, Choice):
+        return widgets.Dropdown(options=list(kind.options), value=value, description=label,
+                                style=style)
+    if isinstance(kind, Numbers):  # a colour
+        return widgets.ColorPicker(value=_hex(value), description=label, style=style)
+    lo, hi = slider_range(kind, value)
+    if isinstance(kind, Integer):
+        return widgets.IntSlider(value=value, min=lo, max=hi, **common)
+    return widgets.FloatSlider(value=value, min=lo, max=hi, step=(hi - lo) / 1000.0,
+                               readout_format=".4g", **common)
+
+
+class Explorer:
+    """A shell beside controls for its spec (see :func:`explore`).  ``controls`` maps each
+    spec key (``"canal.tilt"``, ``"whorls.point_scale[1]"``, ``"spiral.beta"``) and ``"seed"``,
+    ``"turn"``, ``"tilt"``, ``"look"`` to its widget; ``spec`` is the spec in hand; ``image``
+    the picture; ``pictures`` counts the pictures drawn."""
+
+    def __init__(self, spec: ShellSpec | Mapping | str | Path = "murex", seed: int = 0,
+                 size: int = 512, coarse: int = 128, settle: float = 0.25,
+                 path: str | Path | None = None) -> None:
+        import ipywidgets as widgets
+
+        self.live = LiveShell(spec, seed)
+        self.size = Integer(16, 4096).check("size", size)
+        self.coarse = Integer(16, self.size).check("coarse", coarse)
+        self.settle = Number(0.0, 60.0).check("settle", settle)
+        self.view, self.look = View(), "studio"
+        self.pictures = 0
+        self._error: str | None = None
+        default = path or (spec if isinstance(spec, str | Path) and Path(spec).suffix == ".toml"
+                           else f"{Path(str(self.live.spec.name)).name.replace(' ', '_')}.toml")
+        self.image = widgets.Image(format="png", layout=widgets.Layout(width=f"{self.size}px"))
+        self.status = widgets.HTML()
+        self.path = widgets.Text(value=str(default), description="file")
+        save = widgets.Button(description="save TOML", icon="save")
+        save.on_click(lambda _: self._report(self.save))
+        self.controls: dict[str, Any] = {
+            "seed": widgets.BoundedIntText(value=self.live.seed, min=0, max=2**32 - 1,
+                                           description="seed"),
+            "turn": widgets.FloatSlider(value=0.0, min=TURN.lo, max=TURN.hi, step=1.0,
+                                        description="turn"),
+            "tilt": widgets.FloatSlider(value=0.0, min=TILT.lo, max=TILT.hi, step=1.0,
+                                        description="tilt"),
+            "look": widgets.Dropdown(options=sorted(LOOKS), value=self.look, description="look"),
+        }
+        tables: dict[str, list] = {}
+        for name, (table, kind, value) in _controls_of(self.live.spec).items():
+            self.controls[name] = _widget(widgets, name, kind, value)
+            tables.setdefault(table, []).append(self.controls[name])
+        for name, control in self.controls.items():
+            control.observe(lambda change, name=name: self._changed(name, change["new"]),
+                            names="value")
+        accordion = widgets.Accordion(children=[widgets.VBox(c) for c in tables.values()],
+                                      titles=tuple(tables))
+        head = [self.controls[k] for k in ("turn", "tilt", "look", "seed")]
+        side = widgets.VBox([*head, widgets.HBox([self.path, save]), self.status, accordion])
+        self.widget = widgets.HBox([self.image, side])
+        self._cond = threading.Condition()
+        self._wanted = self._drawn = 0  # generations asked for and fully drawn
+        self._closed = False
+        self._thread = threading.Thread(target=self._draw_loop, name="blobtree-explore",
+                                        daemon=True)
+        self._thread.start()
+        self._request()
+
+    @property
+    def spec(self) -> ShellSpec:
+        """The spec in hand."""
+        return self.live.spec
+
+    def _repr_mimebundle_(self, **options: Any) -> dict | None:
+        """Shown in a notebook as its widgets."""
+        return self.widget._repr_mimebundle_(**options)
+
+    def _changed(self, name: str, value: Any) -> None:
+        """A control moved: a new spec, seed or view, drawn at once; a refused value is shown
+        and the picture kept."""
+        try:
+            if name == "seed":
+                changed = self.live.set(seed=value)
+            elif name in ("turn", "tilt"):
+                view = replace(self.view, **{name: value})
+                changed, self.view = view != self.view, view
+            elif name == "look":
+                changed, self.look = value != self.look, Choice(tuple(LOOKS)).check("look", value)
+            else:
+                if isinstance(self.controls[name], _color_picker()):
+                    value = _rgb(value)
+                changed = self.live.set(with_control(self.live.spec, name, value))
+        except ValueError as e:
+            self._show_status(f"⚠ {e}")
+            return
+        if changed:
+            self._request()
+
+    def _request(self) -> None:
+        with self._cond:
+            self._wanted += 1
+            self._cond.notify_all()
+
+    @property
+    def passes(self) -> list[tuple[int, bool]]:
+        """(side, shadows) of the pictures drawn for a change: ``coarse`` without shadow rays
+        at once, then half ``size`` and ``size`` with them once nothing changes."""
+        half = [(self.size // 2, True)] if self.coarse < self.size // 2 else []
+        return [(self.coarse, False), *half, (self.size, True)]
+
+    def _stale(self, generation: int) -> bool:
+        return self._wanted != generation or self._closed
+
+    def _draw_loop(self) -> None:
+        """The drawing thread: the latest change's :attr:`passes`, the sharper ones once nothing
+        has changed for ``settle`` seconds; a change stops the picture being drawn."""
+        while True:
+            with self._cond:
+                while self._wanted == self._drawn and not self._closed:
+                    self._cond.wait()
+                if self._closed:
+                    return
+                generation = self._wanted
+            for i, (side, shadows) in enumerate(self.passes):
+                if i == 1:
+                    with self._cond:
+                        self._cond.wait_for(lambda g=generation: self._stale(g), self.settle)
+                if self._stale(generation) or not self._draw(side, shadows, generation):
+                    break
+            with self._cond:
+                if not self._stale(generation) or self._closed:
+                    self._drawn = generation
+                    self._cond.notify_all()
+
+    def _draw(self, size: int, shadows: bool, generation: int) -> bool:
+        """Draw one pass; False if it is not worth going on (a refused spec, or stale)."""
+        from .render.image import encode_png
+
+        try:
+            img = self.live.picture(size, size, self.view, shadows=shadows, look=self.look,
+                                    source=self._tiles(generation))
+        except _Stale:
+            return False
+        except ValueError as e:
+            self._show_status(f"⚠ {e}")
+            return False
+        self.image.value = encode_png(img)
+        self.pictures += 1
+        self._show_status(f"{size}x{size}: " + ", ".join(
+            f"{k} {v:.2f} s" for k, v in self.live.timings.items()))
+        return True
+
+    def _tiles(self, generation: int) -> Callable[..., Iterator]:
+        """``render``'s tile source: this machine's, stopped at the first tile after a change
+        (the tiles started finish, the others are dropped)."""
+
+        def source(*job: Any) -> Iterator:
+            with contextlib.closing(_local_tiles(*job, parallel_threads())) as done:
+                for item in done:
+                    if self._stale(generation):
+                        raise _Stale
+                    yield item
+
+        return source
+
+    def _show_status(self, text: str) -> None:
+        import html
+
+        self.status.value = f"<small>{html.escape(text)}</small>"
+
+    def _report(self, action: Callable[[], Any]) -> None:
+        try:
+            self._show_status(f"wrote {action()}")
+        except (ValueError, OSError) as e:
+            self._show_status(f"⚠ {e}")
+
+    def wait(self, timeout: float = 300.0) -> bool:
+        """Wait until the latest change is drawn at full size (or refused); False if
+        ``timeout`` seconds passed first."""
+        with self._cond:
+            return self._cond.wait_for(lambda: self._drawn == self._wanted, timeout)
+
+    def save(self, path: str | Path | None = None) -> Path:
+        """Write the spec in hand as TOML (``blobtree spec``'s form) to ``path`` (default: the
+        file box's); return the path."""
+        target = Path(self.path.value if path is None else path)
+        if target.suffix != ".toml":
+            raise ValueError(f"path must end in .toml, got {short_repr(str(target))}")
+        return write_file(target, to_toml(self.spec).encode("utf-8"))
+
+    def close(self) -> None:
+        """Stop the drawing thread and close the widgets."""
+        with self._cond:
+            self._closed = True
+            self._cond.notify_all()
+        self._thread.join()
+        self.widget.close()
+
+
+class _Stale(Exception):
+    """A picture given up: the controls changed while it was drawn."""
+
+
+def _color_picker() -> type:
+    import ipywidgets
+
+    return ipywidgets.ColorPicker
+
+
+def explore(spec: ShellSpec | Mapping | str | Path = "murex", seed: int = 0, size: int = 512,
+            **options: Any) -> Explorer:
+    """A shell beside controls for its spec, in a notebook: sliders for its numbers (over the
+    ranges their kinds allow), menus for its choices, grouped by the spec's tables, and the
+    view (turn about the shell axis, tilt toward the apex).  A change draws a coarse picture
+    at once, then, once nothing has changed for ``settle`` seconds, studio pictures with
+    shadows at half ``size`` and at ``size`` pixels (a change stops a picture being drawn);
+    "save TOML" writes the spec; ``explorer.spec`` is the spec in hand.
+
+    ``spec``: a shipped shell's name, a path to a TOML spec, its data or a ShellSpec;
+    ``options``: ``coarse`` (side of the first picture, 128), ``settle`` (0.25 s), ``path``
+    (the file "save TOML" writes).  Needs ipywidgets (``pip install blobtree[explore]``)."""
+    try:
+        import ipywidgets  # noqa: F401
+    except ImportError:
+        raise ImportError("bt.explore needs ipywidgets: pip install 'blobtree[explore]'") from None
+    unknown = sorted(set(options) - {"coarse", "settle", "path"})
+    if unknown:
+        raise ValueError(f"explore takes coarse, settle and path, got {unknown}")
+    return Explorer(spec, seed, size, **options)
+
+
+__all__ = ["Explorer", "LiveShell", "View", "explore", "slider_range", "with_control"]

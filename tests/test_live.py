@@ -1,0 +1,200 @@
+"""Modelling live: the explorer's controls drive the spec and the picture, the watcher renders a
+spec file again when it is saved and survives a broken one (docs/live.md)."""
+
+from __future__ import annotations
+
+import io
+import os
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from PIL import Image
+
+import blobtree as bt
+from blobtree.checks import Integer, Number
+from blobtree.cli.main import main
+from blobtree.cli.watch_cmd import Watcher
+from blobtree.live import LiveShell, View, slider_range, with_control
+from blobtree.models.spec import SHELLS, load_spec
+
+pytest.importorskip("ipywidgets", reason="the test extra installs ipywidgets")
+
+MUREX = SHELLS["murex"]
+#: A small shell: two whorls, no opening, plain colours (fast to build and draw).
+SMALL = replace(MUREX, whorls=2, table_1=MUREX.table_1[:2], canal_sections=0, table_2=(),
+                opening=False, texture="plain", bump_sets=0, varices_down_canal=0.0)
+
+
+def _png(data: bytes) -> np.ndarray:
+    return np.asarray(Image.open(io.BytesIO(data)).convert("RGB"))
+
+
+@pytest.fixture
+def explorer():
+    ex = bt.explore(SMALL, size=48, coarse=32, settle=0.0)
+    assert ex.wait()
+    yield ex
+    ex.close()
+
+
+def test_a_control_changes_the_spec_and_the_picture(explorer):
+    before, drawn = explorer.image.value, explorer.pictures
+    assert _png(before).shape == (48, 48, 3)
+    explorer.controls["whorls.point_scale[0]"].value = 1.6
+    assert explorer.wait()
+    assert explorer.spec.point_scale[0] == 1.6
+    assert explorer.spec == replace(SMALL, point_scale=(1.6, *SMALL.point_scale[1:]))
+    assert explorer.pictures == drawn + 2  # coarse, then full size
+    assert _png(explorer.image.value).shape == (48, 48, 3)
+    assert explorer.image.value != before
+
+
+def test_an_unchanged_control_gives_no_new_work(explorer):
+    drawn, built = explorer.pictures, dict(explorer.live._kept)
+    explorer.controls["canal.tilt"].value = SMALL.canal_tilt
+    explorer.controls["turn"].value = 0.0
+    assert explorer.wait() and explorer.pictures == drawn
+    assert list(explorer.live._kept) == list(built)  # nothing built, nothing dropped
+    assert all(explorer.live._kept[k] is v for k, v in built.items())
+
+
+def test_a_picture_stops_when_the_controls_change(explorer):
+    from blobtree.live import _Stale
+
+    with pytest.raises(_Stale):  # a source for an older change stops at its first tile
+        explorer.live.picture(48, 48, source=explorer._tiles(explorer._wanted - 1))
+    explorer.live.picture(48, 48, source=explorer._tiles(explorer._wanted))
+
+
+def test_the_view_turns_without_rebuilding_the_shell(explorer):
+    before = explorer.image.value
+    explorer.controls["turn"].value = 90.0
+    assert explorer.wait()
+    assert explorer.live.timings["tree"] == 0.0 and explorer.live.timings["program"] == 0.0
+    assert explorer.image.value != before
+
+
+def test_a_refused_value_is_shown_and_the_picture_kept(explorer):
+    drawn, spec = explorer.pictures, explorer.spec
+    explorer.controls["opening.previous_whorl[1]"].value = 0  # first > last
+    assert explorer.wait() and explorer.pictures == drawn and explorer.spec == spec
+    assert "opening.previous_whorl must be (first, last)" in explorer.status.value
+
+
+def test_controls_cover_the_spec_grouped_by_table_and_save_it(explorer, tmp_path):
+    c = explorer.controls
+    assert c["spiral.beta"].min == 0.1 and c["spiral.beta"].max == 90.0  # the kind's range
+    assert type(c["bumps.join"]).__name__ == "Dropdown"
+    assert list(c["bumps.join"].options) == ["super_elliptic", "gradient"]
+    assert type(c["canal.fuse"]).__name__ == "Checkbox"
+    assert type(c["look.colours[0]"]).__name__ == "ColorPicker"
+    c["look.colours[0]"].value = "#ff0000"
+    assert explorer.wait() and explorer.spec.colours[0] == (1.0, 0.0, 0.0)
+    titles = explorer.widget.children[1].children[-1].titles
+    assert titles[:3] == ("spiral", "whorls", "canal")
+    path = explorer.save(tmp_path / "mine.toml")
+    assert load_spec(path) == explorer.spec
+    with pytest.raises(ValueError, match="path must end in .toml"):
+        explorer.save(tmp_path / "mine.txt")
+
+
+def test_with_control_and_slider_ranges():
+    assert with_control(MUREX, "canal.base[1]", 0.5).canal_base == (MUREX.canal_base[0], 0.5)
+    assert with_control(MUREX, "spiral.rho", 1.5).spiral.rho == 1.5
+    fewer = with_control(MUREX, "whorls.count", 5)
+    assert fewer.whorls == 5 and fewer.table_1 == MUREX.table_1[:5]
+    more = with_control(MUREX, "whorls.count", 8)
+    assert more.table_1 == MUREX.table_1 + MUREX.table_1[-1:]
+    with pytest.raises(ValueError, match=r"spiral.beta must be a finite number >= 0.1"):
+        with_control(MUREX, "spiral.beta", 0.0)
+    with pytest.raises(ValueError, match="control must be one of"):
+        with_control(MUREX, "varices.table", ())
+    assert slider_range(Number(1.0, 89.0), 30.0) == (1.0, 89.0)
+    assert slider_range(Number(1e-6, 1e6), 0.5) == (1e-6, 2.0)
+    assert slider_range(Integer(0, 10_000), 108) == (0, 216)
+    with pytest.raises(ValueError, match="explore takes coarse, settle and path"):
+        bt.explore(SMALL, shadows=False)
+
+
+def test_a_view_turns_about_the_axis_and_tilts_toward_the_apex():
+    up, along = (0.0, 1.0, 0.0), (1.0, 0.0, 0.0)
+    assert np.allclose(View().direction(up, along), along)
+    assert np.allclose(View(turn=90.0).direction(up, along), (0.0, 0.0, -1.0))
+    assert np.allclose(View(tilt=30.0).direction(up, along), (0.866025, -0.5, 0.0), atol=1e-6)
+    with pytest.raises(ValueError, match="tilt must be a finite number >= -80 and <= 80"):
+        View(tilt=90.0)
+
+
+def test_live_shell_keeps_what_it_built():
+    live = LiveShell(SMALL)
+    live.picture(24, 24, shadows=False)
+    assert live.timings["tree"] > 0.0
+    assert not live.set(SMALL)
+    live.picture(24, 24, View(turn=40.0), shadows=False)
+    assert live.timings["tree"] == live.timings["program"] == 0.0
+
+
+def test_a_program_compiled_with_reuse_is_the_one_compiled_afresh():
+    from blobtree.engine.program import Reuse, compile_tree
+
+    textured = replace(SMALL, texture="paper")  # with images, whose places copies rely on
+    reuse = Reuse()
+    compile_tree(bt.models.shell(textured), reuse)
+    for spec, seed in ((replace(textured, spine_length=1.0), 0),
+                       (replace(textured, point_radius=1.3), 0),
+                       (replace(textured, spine_length=1.0), 1)):  # other images: no copies
+        reused = compile_tree(bt.models.shell(spec, seed), reuse)
+        fresh = compile_tree(bt.models.shell(spec, seed))
+        for name in ("code", "params", "boxes", "lips"):
+            assert np.array_equal(getattr(reused, name), getattr(fresh, name)), name
+        assert reused.depth == fresh.depth and len(reuse.spans) > 10
+
+
+# ----- blobtree watch ------------------------------------------------------------------------
+def _write(path: Path, text: str) -> None:
+    path.write_text(text)
+    stamp = path.stat().st_mtime_ns + 10_000_000  # as a later save (coarse file clocks)
+    os.utime(path, ns=(stamp, stamp))
+
+
+def test_the_watcher_renders_on_a_change_and_survives_a_broken_file(tmp_path):
+    spec, out, said = tmp_path / "mine.toml", tmp_path / "preview.png", []
+    _write(spec, bt.models.spec.to_toml(SMALL))
+    w = Watcher(spec, out, 48, 40, say=said.append, shadows=False)
+    assert w.poll() and np.asarray(Image.open(out)).shape == (40, 48, 3)
+    assert not w.poll()  # no change, no work
+    first = out.read_bytes()
+    _write(spec, spec.read_text().replace("tilt = 55.0", "tilt = 55.0\ntilt = 1"))
+    assert not w.poll()
+    assert said[-1].startswith(f"{spec}: not valid TOML") and said[-1].endswith(
+        f"; keeping {out}") and "\n" not in said[-1]
+    _write(spec, spec.read_text().replace("\ntilt = 1", "").replace(
+        "sets = 0", "sets = -1"))
+    assert not w.poll() and "bumps.sets must be an integer in [0, 64], got -1" in said[-1]
+    assert out.read_bytes() == first  # the last good picture kept
+    _write(spec, bt.models.spec.to_toml(replace(SMALL, point_radius=1.3)))
+    assert w.poll() and out.read_bytes() != first
+    _write(spec, bt.models.spec.to_toml(replace(SMALL, point_radius=1.3)))
+    assert not w.poll()  # saved again without a change to the spec
+
+
+def test_watch_command_refuses_bad_arguments_and_stops_on_ctrl_c(tmp_path, monkeypatch):
+    r = CliRunner().invoke(main, ["watch", "scene.json"])
+    assert r.exit_code == 2 and "expected a shell spec file (.toml)" in r.output
+    r = CliRunner().invoke(main, ["watch", "x.toml", "-o", "-"])
+    assert r.exit_code == 2 and "give a file name, not -" in r.output
+    spec, out = tmp_path / "s.toml", tmp_path / "p.png"
+    spec.write_text(bt.models.spec.to_toml(SMALL))
+
+    def interrupt(_):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr("blobtree.cli.watch_cmd.time.sleep", interrupt)
+    r = CliRunner().invoke(main, ["watch", str(spec), "-o", str(out), "--size", "32x32",
+                                  "--no-shadows"])
+    assert r.exit_code == 0, r.output
+    assert "p.png: 32x32" in r.output and r.output.rstrip().endswith("stopped")
+    assert np.asarray(Image.open(out)).shape == (32, 32, 3)
