@@ -21,7 +21,7 @@ class HelicoSpiral:
     d_ratio: float | None = None
 
     def __post_init__(self) -> None:
-        for name, kind in _KINDS.items():
+        for name, kind in KINDS.items():
             value = getattr(self, name)
             if not (name == "d_ratio" and value is None):
                 object.__setattr__(self, name, kind.check(name, value))
@@ -89,7 +89,7 @@ class HelicoSpiral:
 
 
 #: What each parameter may be (d_ratio may also be None).
-_KINDS = {"beta": Number(0.1, 90.0), "rho": Number(1.000001, 1e3), "r0": positive(),
+KINDS = {"beta": Number(0.1, 90.0), "rho": Number(1.000001, 1e3), "r0": positive(),
           "d_ratio": Number(1e-6, 1e3)}
 
 

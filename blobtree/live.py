@@ -24,11 +24,11 @@ import numpy as np
 from . import models
 from .checks import Choice, Integer, Kind, Number, short_repr
 from .engine.program import Reuse, compile_tree
-from .helico import _KINDS as SPIRAL_KINDS
+from .helico import KINDS as SPIRAL_KINDS
 from .helico import HelicoSpiral
 from .models.spec import FIELDS, SPIRAL_KEYS, Flag, Numbers, ShellSpec, to_toml
 from .output import write_file
-from .render import LOOKS, _local_tiles, render
+from .render import LOOKS, local_tiles, render
 from .render.camera import Camera, frame_points, surface_points
 from .runtime.threads import threads as parallel_threads
 
@@ -374,7 +374,7 @@ class Explorer:
         (the tiles started finish, the others are dropped)."""
 
         def source(*job: Any) -> Iterator:
-            with contextlib.closing(_local_tiles(*job, parallel_threads())) as done:
+            with contextlib.closing(local_tiles(*job, parallel_threads())) as done:
                 for item in done:
                     if self._stale(generation):
                         raise _Stale

@@ -139,7 +139,7 @@ def render(tree, width: int, height: int, camera: Camera | None = None,
         store.tile = tile
         rects = store.restore(img, rects)
     if source is None:
-        done = _local_tiles(prog, camera, lights, settings, rects, threads)
+        done = local_tiles(prog, camera, lights, settings, rects, threads)
     else:
         done = source(prog, camera, lights, settings, rects)
     bar = None
@@ -162,7 +162,7 @@ def render(tree, width: int, height: int, camera: Camera | None = None,
     return img
 
 
-def _local_tiles(prog, camera: Camera, lights: list[Light], settings: RenderSettings,
+def local_tiles(prog, camera: Camera, lights: list[Light], settings: RenderSettings,
                  rects: list[tuple[int, int, int, int]], threads: int
                  ) -> Iterator[tuple[tuple[int, int, int, int], np.ndarray]]:
     """Render ``rects`` on ``threads`` cores of this machine, yielding (rect, pixels) as tiles
