@@ -18,7 +18,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -28,13 +27,6 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import blobtree as bt  # noqa: E402
-
-
-def timed(fn):
-    """(result, seconds) of fn()."""
-    start = time.perf_counter()
-    out = fn()
-    return out, time.perf_counter() - start
 
 
 def main() -> None:
@@ -52,15 +44,15 @@ def main() -> None:
     opts = dict(samples=args.samples, tile=args.tile)
     n = args.size
     bt.render(tree, 32, 32, **opts)  # warm-up: kernels loaded, program compiled
-    local, t_local = timed(lambda: bt.render(tree, n, n, **opts))
+    local, t_local = record.timed(lambda: bt.render(tree, n, n, **opts))
     print(f"local engine      {n}x{n}: {t_local:8.2f} s")
 
     with contextlib.ExitStack() as stack:
-        client, t_start = timed(lambda: stack.enter_context(connect(workers=args.workers)))
+        client, t_start = record.timed(lambda: stack.enter_context(connect(workers=args.workers)))
         print(f"cluster start ({args.workers} workers): {t_start:8.2f} s")
-        _, t_cold = timed(lambda: bt.render(tree, 32, 32, **opts, scheduler=client))
+        _, t_cold = record.timed(lambda: bt.render(tree, 32, 32, **opts, scheduler=client))
         print(f"cold 32x32 on the cluster (workers load kernels, compile): {t_cold:.2f} s")
-        remote, t_remote = timed(lambda: bt.render(tree, n, n, **opts, scheduler=client))
+        remote, t_remote = record.timed(lambda: bt.render(tree, n, n, **opts, scheduler=client))
     print(f"Dask cluster      {n}x{n}: {t_remote:8.2f} s")
     print(f"byte-identical: {np.array_equal(local, remote)}")
     print(f"ratio cluster / local: {t_remote / t_local:.3f} (bar: <= 1.3)")

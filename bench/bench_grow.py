@@ -19,7 +19,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -31,13 +30,6 @@ sys.path.insert(0, str(ROOT))
 import blobtree as bt  # noqa: E402
 from blobtree.cli.render_cmd import command_camera  # noqa: E402
 from blobtree.film import Film, local_frames  # noqa: E402
-
-
-def timed(fn):
-    """(result, seconds) of fn()."""
-    start = time.perf_counter()
-    out = fn()
-    return out, time.perf_counter() - start
 
 
 def main() -> None:
@@ -56,16 +48,16 @@ def main() -> None:
     film = Film(spec, 0, args.frames, n, n, camera)
     warm = Film(spec, 0, 2, 32, 32, camera)
     dict(local_frames(warm, [0, 1]))  # kernels loaded
-    local, t_local = timed(lambda: dict(local_frames(film, film.order())))
+    local, t_local = record.timed(lambda: dict(local_frames(film, film.order())))
     print(f"local engine  {args.frames} frames {n}x{n}: {t_local / args.frames:8.2f} s/frame")
 
     with contextlib.ExitStack() as stack:
-        client, t_start = timed(lambda: stack.enter_context(connect(workers=args.workers)))
+        client, t_start = record.timed(lambda: stack.enter_context(connect(workers=args.workers)))
         print(f"cluster start ({args.workers} workers): {t_start:8.2f} s")
         indices = list(range(warm.frames)) * args.workers
-        _, t_cold = timed(lambda: list(remote_frames(client, warm, indices)))
+        _, t_cold = record.timed(lambda: list(remote_frames(client, warm, indices)))
         print(f"cold frames on the cluster (workers load kernels): {t_cold:.2f} s")
-        remote, t_remote = timed(lambda: dict(remote_frames(client, film, film.order())))
+        remote, t_remote = record.timed(lambda: dict(remote_frames(client, film, film.order())))
     print(f"Dask cluster  {args.frames} frames {n}x{n}: {t_remote / args.frames:8.2f} s/frame")
     same = all(np.array_equal(local[i], remote[i]) for i in local)
     print(f"byte-identical: {same}")

@@ -20,6 +20,7 @@ import stat
 import subprocess
 import sys
 import tempfile
+import time
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -34,6 +35,13 @@ DATE = "%Y-%m-%dT%H:%M:%SZ"  # UTC, to the second
 
 class RecordError(ValueError):
     """A record file that is not a sequence of complete, well-formed entries."""
+
+
+def timed(fn: Any) -> tuple[Any, float]:
+    """(result, seconds) of fn()."""
+    start = time.perf_counter()
+    out = fn()
+    return out, time.perf_counter() - start
 
 
 def sig4(x: float) -> float:
