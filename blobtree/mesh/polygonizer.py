@@ -28,8 +28,11 @@ import os
 import numpy as np
 
 from ..checks import Integer, Vec3, positive, short_repr
+from ..engine import batch
+from ..engine.batch import lanes_walk
 from ..engine.program import program_of
 from ..nodes.node import ISO
+from ..runtime import partner
 from ..runtime.threads import parallel_for
 from ._kernels import block_triangles
 from ._lattice import (
@@ -106,6 +109,7 @@ def polygonize(
     from tqdm.auto import tqdm
 
     prog = program_of(tree)
+    _share_first_compile()
     if bounds is None and not np.all(np.asarray(prog.bounds[1]) > np.asarray(prog.bounds[0])):
         return Mesh.empty()  # the tree's support is empty or flat: no solid
     lo, hi = _check_bounds(prog.bounds if bounds is None else bounds)
@@ -128,6 +132,14 @@ def polygonize(
         verts, grad, colors = _place(prog, grid, regions, keys, f0, f1, centres, vertex_start)
         bar.update()
     return Mesh(verts, tris, _normals(grad, verts, tris), np.clip(colors, 0.0, 1.0))
+
+
+def _share_first_compile() -> None:
+    """On a first run (the lanes walk missing from the cache), a partner process compiles the
+    lanes walk (the vertices' gradients and colours: the last step) while this one compiles the
+    lattice's kernels (``runtime.partner``)."""
+    if not lanes_walk.ensure(compile=False):
+        partner.start({lanes_walk.symbol: f"{batch.__name__}:lanes_walk"})
 
 
 def _place(prog, grid: _Grid, regions, keys, f0, f1, centres, vertex_start):

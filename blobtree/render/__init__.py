@@ -15,17 +15,24 @@ from concurrent.futures import ThreadPoolExecutor, as_completed
 from typing import Any
 
 import numpy as np
+from numba.core.compiler_lock import global_compiler_lock
 
 from ..checks import Choice
+from ..engine import bounds
+from ..engine.batch import rows_walk
+from ..engine.bounds import bounded_walk, lipschitz_walk
+from ..engine.point import point_walk
 from ..engine.program import program_of
 from ..nodes import Point
+from ..runtime import partner
 from ..runtime.threads import parallel_for
 from ..runtime.threads import threads as parallel_threads
+from . import tiles as tiles_module
 from .camera import Camera, seen_camera
 from .checkpoint import Checkpoint, job_key
 from .image import save_image
 from .shade import Light, default_lights, pack_lights
-from .tiles import LOOKS, RenderSettings, render_tile, trace_rect
+from .tiles import LOOKS, RenderSettings, compile_tracer, render_tile, trace_rect
 from .trace import intersect_rays
 
 __all__ = ["LOOKS", "Camera", "Light", "RenderSettings", "intersect", "render", "render_tile",
@@ -59,17 +66,42 @@ def warm_kernels() -> threading.Thread:
     loading (0.07-0.1 s, mostly in LLVM, without the GIL) then overlaps whatever the caller
     does next in Python, such as building its scene; a render that starts sooner waits for it
     (numba's compiler lock).  The pixel's errors are not reported: the real render reports its
-    own."""
+    own.
+
+    On a first run (the bound passes missing from the cache) a partner process compiles the
+    bound passes and the tracer (:func:`tracer_unit`) while this one compiles the point and rows
+    walks the tracer calls (``runtime.partner``): the two halves on two cores."""
 
     def run() -> None:
-        cam = Camera(eye=(0.0, 0.0, 3.0), target=(0.0, 0.0, 0.0))
         with contextlib.suppress(Exception):
-            trace_rect(Point().program(), cam.packed(1, 1), pack_lights(default_lights(cam)),
-                       RenderSettings(width=1, height=1), 0, 0, 1, 1)
+            if not lipschitz_walk.ensure(compile=False):
+                partner.start({lipschitz_walk.symbol: f"{bounds.__name__}:lipschitz_walk",
+                               TRACER: f"{__name__}:tracer_unit"})
+                with global_compiler_lock:  # (a render starting meanwhile waits for them)
+                    point_walk.ensure()
+                    bounded_walk.ensure()
+                    rows_walk.ensure()
+            trace_rect(*_pixel())
 
     thread = threading.Thread(target=run, name="blobtree-warm-kernels", daemon=True)
     thread.start()
     return thread
+
+
+def _pixel() -> tuple:
+    """trace_rect's arguments for one pixel of a lone point."""
+    cam = Camera(eye=(0.0, 0.0, 3.0), target=(0.0, 0.0, 0.0))
+    return (Point().program(), cam.packed(1, 1), pack_lights(default_lights(cam)),
+            RenderSettings(width=1, height=1), 0, 0, 1, 1)
+
+
+#: The tracer's kernel, as the partner process's unit is named (``runtime.partner``).
+TRACER = f"{tiles_module.__name__}._render_blocks"
+
+
+def tracer_unit() -> None:
+    """Compile the tracer's kernels without running them (a partner process's unit)."""
+    compile_tracer(*_pixel()[:4])
 
 
 def tiles(width: int, height: int, size: int = TILE_SIDES[-1]

@@ -169,6 +169,22 @@ def render_tile(prog, camera: Camera, lights: list[Light], settings: RenderSetti
 def trace_rect(prog, cam: np.ndarray, lights: np.ndarray, settings: RenderSettings,
                x0: int, y0: int, x1: int, y1: int) -> np.ndarray:
     """:func:`render_tile` on an already packed camera and lights (no argument checks)."""
+    args = render_arguments(prog, cam, lights, settings, x0, y0, x1, y1)
+    _render_blocks(*args)
+    return args[3]
+
+
+def compile_tracer(prog, cam: np.ndarray, lights: np.ndarray, settings: RenderSettings) -> None:
+    """Compile the kernels :func:`trace_rect` runs for these arguments (one pixel's), without
+    running them (a partner process's work, ``runtime.partner``)."""
+    args = render_arguments(prog, cam, lights, settings, 0, 0, 1, 1)
+    _render_blocks.compile(tuple(_render_blocks.typeof_pyval(a) for a in args))
+
+
+def render_arguments(prog, cam: np.ndarray, lights: np.ndarray, settings: RenderSettings,
+                     x0: int, y0: int, x1: int, y1: int) -> tuple:
+    """The arguments of the tracer's kernel for pixels [y0, y1) x [x0, x1): the program, the
+    view, the tile, the pixels (to fill), buffers and stacks."""
     lo, hi = (np.asarray(b, dtype=np.float64) for b in prog.bounds)
     diag = float(np.linalg.norm(hi - lo))
     s = settings
@@ -193,8 +209,7 @@ def trace_rect(prog, cam: np.ndarray, lights: np.ndarray, settings: RenderSettin
     work = specialize_work.py_func(prog.code)
     buffers = (_program_buffers(len(prog.code)), _program_buffers(len(prog.code)), np.empty(3),
                np.empty(3), work, _packet_scratch(prog.depth, len(prog.code), work))
-    _render_blocks(prog.arrays, view, (x0, y0, x1, y1, gx0, gy0, nbx, nby), out, buffers, st)
-    return out
+    return prog.arrays, view, (x0, y0, x1, y1, gx0, gy0, nbx, nby), out, buffers, st
 
 
 def _program_buffers(n: int) -> tuple:

@@ -27,6 +27,7 @@ from numba.core import event, types
 from numba.core.caching import FunctionCache
 from numba.core.runtime import rtsys
 
+from . import partner
 from .linked import Linked, register_cached
 
 _PACKAGE = Path(__file__).resolve().parents[1]
@@ -56,22 +57,23 @@ class _QuickCache(FunctionCache):
         (0.25-0.5 s on the first call of a process, SciPy's BLAS check included), which only
         compiling needs, and numba's compiler refreshes before it compiles.  Loading needs
         only the runtime's symbols (``rtsys``) and those of the linked kernels
-        (:meth:`_load_overload`)."""
+        (:meth:`_load_overload`).  A kernel a partner process is compiling
+        (``runtime.partner``) is waited for."""
         rtsys.initialize(target_context)
+        partner.wait(f"{self._py_func.__module__}.{self._py_func.__qualname__}")
         with self._guard_against_spurious_io_errors():
             return self._load_overload(sig, target_context)
 
     def _load_overload(self, sig, target_context):
         """numba's, registering the linked kernels a kernel found in the cache calls by symbol
-        (``runtime.linked``) before it is loaded; where the cache lacks one of them, the kernel
-        is not loaded but compiled again (and the linked kernel with it, as its call is typed):
-        a call to a symbol never registered would jump to nothing.  (``data[0]`` is numba's
-        serialised library: its name, its kind, then its object code first.)"""
+        (``runtime.linked``) before it is loaded (compiling one the cache lacks).  (``data[0]``
+        is numba's serialised library: its name, its kind, then its object code first.)"""
         if not self._enabled:
             return None
         data = self._cache_file.load(self._index_key(sig, target_context.codegen()))
-        if data is None or not register_cached(data[0][2][0]):
+        if data is None:
             return None
+        register_cached(data[0][2][0])
         return self._impl.rebuild(target_context, data)
 
 

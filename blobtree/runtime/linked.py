@@ -10,8 +10,8 @@ resolves to that function's address (``llvmlite.binding.add_symbol``), in every 
 the caller was compiled now or loaded from the cache.
 
 Before a kernel is loaded from the cache, the walks its code calls are loaded and their symbols
-registered (:func:`register_cached`); if one is missing from the cache, the kernel is compiled
-instead of loaded (a call to a symbol never registered would jump to nothing).  A walk not yet
+registered (:func:`register_cached`); one missing from the cache is compiled first (a call to a
+symbol never registered would jump to nothing).  A walk not yet
 compiled is compiled when the first kernel calling it is (its call is typed).  The walks are
 cached like every kernel, keyed on the whole engine (``jit.engine_key``).
 """
@@ -26,6 +26,8 @@ from numba.core import cgutils, event
 from numba.core.ccallback import CFunc
 from numba.core.compiler_lock import global_compiler_lock
 from numba.extending import intrinsic
+
+from . import partner
 
 #: Every linked kernel, in the order they were made.
 LINKED: list[Linked] = []
@@ -62,6 +64,7 @@ class Linked:
         symbol; whether it is registered."""
         if self._cfunc is not None:
             return True
+        partner.wait(self.symbol)
         cf = CFunc(self.py_func, (self.signature.args, self.signature.return_type), {},
                    self._options)
         cf._cache = self._make_cache()
@@ -69,6 +72,10 @@ class Linked:
         if cres is None:
             if not compile:
                 return False
+            address = partner.placeholder(self.symbol)
+            if address is not None:  # (a partner process: compiles, never runs)
+                llvm.add_symbol(self.symbol, address)
+                return True
             with event.trigger_event("numba:compile", data={"dispatcher": self}):
                 cres = cf._compile_uncached()
             cf._cache.save_overload(cf._sig, cres)
@@ -114,9 +121,10 @@ def _intrinsic(target: Linked):
     return intrinsic(namespace[target.py_func.__name__])
 
 
-def register_cached(code: bytes) -> bool:
+def register_cached(code: bytes) -> None:
     """Register the linked kernels that the object ``code`` of a kernel in the cache names (its
-    calls to them), loading them from the cache, before that kernel is loaded; compile none.
-    Whether all of them are registered."""
-    return all(target.ensure(compile=False) for target in LINKED
-               if target.symbol.encode() in code)
+    calls to them) before that kernel is loaded: loaded from the cache, or compiled where the
+    cache lacks one (a call to a symbol never registered would jump to nothing)."""
+    for target in LINKED:
+        if target.symbol.encode() in code:
+            target.ensure()
