@@ -30,7 +30,7 @@ def compile_notice(quiet: bool = False) -> Iterator[None]:
 
     def notice() -> None:
         if not quiet:  # through tqdm, so a progress bar on screen stays whole
-            tqdm.write("compiling kernels, first run only (about a minute) ...", file=sys.stderr)
+            tqdm.write("compiling kernels, first run only (under a minute) ...", file=sys.stderr)
 
     with on_compile(notice):
         yield
