@@ -28,7 +28,7 @@ from .helico import KINDS as SPIRAL_KINDS
 from .helico import HelicoSpiral
 from .models.spec import FIELDS, SPIRAL_KEYS, Flag, Numbers, ShellSpec, to_toml
 from .output import write_file
-from .render import LOOKS, local_tiles, render
+from .render import LOOKS, local_tiles, render, warm_kernels
 from .render.camera import Camera, frame_points, surface_points
 from .runtime.threads import threads as parallel_threads
 
@@ -445,6 +445,7 @@ def explore(spec: ShellSpec | Mapping | str | Path = "murex", seed: int = 0, siz
     unknown = sorted(set(options) - {"coarse", "settle", "path"})
     if unknown:
         raise ValueError(f"explore takes coarse, settle and path, got {unknown}")
+    warm_kernels()  # (loading, on a first run compiling, while the tree is built)
     return Explorer(spec, seed, size, **options)
 
 

@@ -89,22 +89,25 @@ def test_a_killed_partner_costs_only_time(tmp_path):
 
 
 @pytest.mark.slow
-def test_a_render_shared_with_a_partner_is_the_same_picture(tmp_path):
-    """The tracer compiled by the partner around placeholders for the walks this process
-    compiles: loaded here, it calls the real walks; and the cache left is complete."""
+def test_a_render_and_a_mesh_shared_with_a_partner_are_the_same(tmp_path):
+    """The tracer and the contouring compiled by the partner (around placeholders for the
+    walks this process compiles): loaded here, they call the real walks; the picture and the
+    mesh are those of one process alone, and the cache left is complete."""
 
-    def render(cache: str, threads: int, name: str) -> bytes:
+    def run(cache: str, threads: int, *args: str) -> bytes:
         env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / cache),
                "PYTHONPATH": str(ROOT), "NUMBA_NUM_THREADS": str(threads)}
-        run = subprocess.run([sys.executable, "-m", "blobtree.cli.main", "render", "whorl126",
-                              "--size", "40x32", "-o", name], capture_output=True, text=True,
-                             env=env, cwd=tmp_path)
-        assert run.returncode == 0, run.stderr[-2000:]
+        name = f"{cache}-{len(list(tmp_path.iterdir()))}.{'ply' if args[0] == 'mesh' else 'png'}"
+        done = subprocess.run([sys.executable, "-m", "blobtree.cli.main", *args, "-o", name],
+                              capture_output=True, text=True, env=env, cwd=tmp_path)
+        assert done.returncode == 0, done.stderr[-2000:]
         return (tmp_path / name).read_bytes()
 
-    shared = render("shared", 2, "shared.png")
-    assert shared == render("alone", 1, "alone.png")
-    assert render("shared", 2, "again.png") == shared  # from the cache the two left
+    render = ("render", "whorl126", "--size", "40x32")
+    mesh = ("mesh", "whorl126", "--resolution", "24")
+    shared = run("shared", 2, *render), run("shared", 2, *mesh)
+    assert shared == (run("alone", 1, *render), run("alone", 1, *mesh))
+    assert (run("shared", 2, *render), run("shared", 2, *mesh)) == shared  # from the cache
 
 
 def test_unknown_units_and_keys_release_at_once(tmp_path, monkeypatch):

@@ -11,7 +11,7 @@ from typing import Any
 import click
 
 from ..models.figures import BEYOND, FIGURES, TEXTURE_FIGURES, GridFigure, TextureFigure
-from ..render import LOOKS, render, save_image
+from ..render import LOOKS, render, save_image, warming
 from ..render.camera import framed_camera
 from ..render.image import labelled_grid
 from . import compile_notice
@@ -46,30 +46,37 @@ def figures(out_dir: Path, height: int, samples: int, shadows: bool, look: str,
     beyond it (species, grown spines, varices down the canal, Eq. 15's two forms, joins, group
     blends, Raup's cube, pigment patterns)."""
     out_dir.mkdir(parents=True, exist_ok=True)
-    for key in only or ALL:
-        start = time.perf_counter()
-        path = out_dir / f"figure-{key}.png"
-        fig = {**FIGURES, **TEXTURE_FIGURES, **BEYOND}[key]
-        if isinstance(fig, TextureFigure):
-            save_image(_seeded(fig.draw, seed), path)
-        elif isinstance(fig, GridFigure):
-            cells = fig.cells()
-            side = max(16, height // len(cells))
-            with compile_notice():
-                images = [[render(tree, side, side, camera=framed_camera(
-                    tree.program(), side, side, view=fig.view, up=fig.up, fov=fig.fov),
-                    samples=samples, shadows=shadows, look=look) for _, tree in row]
-                    for row in cells]
-            save_image(labelled_grid(images, [[name for name, _ in row] for row in cells]),
-                       path)
-        else:
-            tree = _seeded(fig.build, seed)
-            aspect = fig.aspect(tree)
-            width = max(16, round(height * aspect))
-            camera = framed_camera(tree.program(), width, height, view=fig.view, up=fig.up,
-                                   fov=fig.fov)
-            with compile_notice():
-                img = render(tree, width, height, camera=camera, samples=samples,
-                             shadows=shadows, look=look)
-            save_image(img, path)
-        click.echo(f"figure {key}: {path} ({time.perf_counter() - start:.1f} s)")
+    figures = {**FIGURES, **TEXTURE_FIGURES, **BEYOND}
+    traced = any(not isinstance(figures[key], TextureFigure) for key in only or ALL)
+    # (the tracer loads, or on a first run compiles, while the first figure's tree is built)
+    with compile_notice(), warming(traced):
+        for key in only or ALL:
+            _figure(key, figures[key], out_dir, height, samples, shadows, look, seed)
+
+
+def _figure(key: str, fig: Any, out_dir: Path, height: int, samples: int, shadows: bool,
+            look: str, seed: int) -> None:
+    """Draw one figure into ``out_dir``."""
+    start = time.perf_counter()
+    path = out_dir / f"figure-{key}.png"
+    if isinstance(fig, TextureFigure):
+        save_image(_seeded(fig.draw, seed), path)
+    elif isinstance(fig, GridFigure):
+        cells = fig.cells()
+        side = max(16, height // len(cells))
+        images = [[render(tree, side, side, camera=framed_camera(
+            tree.program(), side, side, view=fig.view, up=fig.up, fov=fig.fov),
+            samples=samples, shadows=shadows, look=look) for _, tree in row]
+            for row in cells]
+        save_image(labelled_grid(images, [[name for name, _ in row] for row in cells]),
+                   path)
+    else:
+        tree = _seeded(fig.build, seed)
+        aspect = fig.aspect(tree)
+        width = max(16, round(height * aspect))
+        camera = framed_camera(tree.program(), width, height, view=fig.view, up=fig.up,
+                               fov=fig.fov)
+        img = render(tree, width, height, camera=camera, samples=samples, shadows=shadows,
+                     look=look)
+        save_image(img, path)
+    click.echo(f"figure {key}: {path} ({time.perf_counter() - start:.1f} s)")

@@ -14,6 +14,7 @@ import click
 from ..film import FILM_FORMATS, MAX_FRAMES, Film, FrameStore, check_size, encode_film, make_film
 from ..models import shell
 from ..output import display_name, write_file
+from ..render import warming
 from . import checked_output, compile_notice, format_option
 from .cluster import cluster, cluster_options
 from .render_cmd import _size, command_camera, look_options
@@ -69,7 +70,7 @@ def grow(scene, output, fmt, frames, size, fps, orbit, seed, samples, no_shadows
             check_size(film_format, width, height)
         except ValueError as exc:
             raise click.BadParameter(str(exc), param_hint="--size") from None
-    with compile_notice(quiet):
+    with compile_notice(quiet), warming(scheduler is None):  # (the tracer loads meanwhile)
         tree = shell(spec, seed)  # the whole shell, as `render` builds it
         camera = command_camera(scene, tree, tree.program(), width, height)
     film = Film(spec, seed, frames, width, height, camera, orbit=orbit, look=look,

@@ -12,7 +12,7 @@ import click
 from ..api import render as render_image
 from ..nodes import Node
 from ..output import display_name
-from ..render import LOOKS, Camera, save_image, warm_kernels
+from ..render import LOOKS, Camera, save_image, warming
 from ..render.camera import default_camera, seen_camera
 from ..render.image import IMAGE_FORMATS
 from ..render.tiles import MAX_SIDE
@@ -96,27 +96,24 @@ def render(scene, output, fmt, size, samples, eye, target, up, fov, no_shadows, 
     checked_output(output, IMAGE_FORMATS, fmt)
     if resume and checkpoint is None:
         raise click.BadParameter("--resume needs --checkpoint DIR", param_hint="--resume")
-    warm = None
     try:
         with compile_notice(quiet):  # (a first run compiles from the scene's camera on)
             tree = resolve_scene(scene)
-            if scheduler is None:  # the kernels load while the program and camera are built
-                warm = warm_kernels()
-            prog = tree.program()
-            camera = command_camera(scene, tree, prog, width, height, eye, target, up, fov)
-            with cluster(scheduler, dask_workers, quiet) as client:
-                img = render_image(tree, width, height, camera=camera, samples=samples,
-                                   shadows=not no_shadows, background=background, look=look,
-                                   tile=tile, progress=not quiet, scheduler=client,
-                                   checkpoint=checkpoint, resume=resume)
+            # the kernels load while the program and camera are built
+            with warming(scheduler is None):
+                prog = tree.program()
+                camera = command_camera(scene, tree, prog, width, height, eye, target, up,
+                                        fov)
+                with cluster(scheduler, dask_workers, quiet) as client:
+                    img = render_image(tree, width, height, camera=camera, samples=samples,
+                                       shadows=not no_shadows, background=background,
+                                       look=look, tile=tile, progress=not quiet,
+                                       scheduler=client, checkpoint=checkpoint, resume=resume)
         save_image(img, output, fmt)
     except KeyboardInterrupt:
         kept = f"; finished tiles kept in {checkpoint} (--resume)" if checkpoint else ""
         click.echo(f"interrupted; nothing written{kept}", err=True)
         sys.exit(130)
-    finally:
-        if warm is not None:  # not left loading (or compiling) as the interpreter exits
-            warm.join()
     if not quiet:
         click.echo(f"{display_name(output)}: {width}x{height}, "
                    f"{time.perf_counter() - start:.2f} s", err=True)

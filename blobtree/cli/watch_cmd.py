@@ -18,7 +18,7 @@ import click
 from .. import models
 from ..live import LiveShell
 from ..output import display_name
-from ..render import save_image
+from ..render import save_image, warming
 from ..render.image import IMAGE_FORMATS
 from . import checked_output, compile_notice
 from .render_cmd import _size, look_options
@@ -93,7 +93,7 @@ def watch(spec, output, size, samples, no_shadows, look, background, interval) -
                       samples=samples, shadows=not no_shadows, look=look, background=background)
     click.echo(f"watching {spec} (Ctrl-C stops)", err=True)
     try:
-        with compile_notice():
+        with compile_notice(), warming():
             while True:
                 watcher.poll()
                 time.sleep(interval)

@@ -213,6 +213,18 @@ def block_triangles(values, origins, box_start, boxes, fine: int, dims, iso: flo
             np.searchsorted(first, block_v))
 
 
+def compile_triangles(block: int, fine: int, iso: float) -> None:
+    """Compile :func:`block_triangles`' kernels by contouring a ball in one block of
+    ``block``^3 cells (a partner process's unit, ``runtime.partner``), with the argument types
+    the polygonizer gives them."""
+    m = block + 1
+    q = np.indices((m, m, m)).reshape(3, -1).T - block / 2.0
+    values = (1.0 - (q * q).sum(axis=1) / (0.4 * block) ** 2).reshape(1, m, m, m)
+    boxes = np.ascontiguousarray(np.indices((block // fine,) * 3).reshape(3, -1).T * fine)
+    block_triangles(values, np.zeros((1, 3), dtype=np.int64), np.array([0, len(boxes)]), boxes,
+                    fine, np.full(3, m, dtype=np.int64), iso)
+
+
 def _weld(keys: np.ndarray, shared: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The vertices to keep (the first of each key) and each vertex's index among them.  Each
     block lists an edge once, so only edges on block faces (``shared``) can repeat: only those

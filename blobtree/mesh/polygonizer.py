@@ -30,11 +30,12 @@ import numpy as np
 from ..checks import Integer, Vec3, positive, short_repr
 from ..engine import batch
 from ..engine.batch import lanes_walk
-from ..engine.program import program_of
+from ..engine.program import Program, program_of
 from ..nodes.node import ISO
 from ..runtime import partner
 from ..runtime.threads import parallel_for
-from ._kernels import block_triangles
+from . import _kernels
+from ._kernels import block_triangles, compile_triangles
 from ._lattice import (
     box_geometry,
     gather,
@@ -109,7 +110,8 @@ def polygonize(
     from tqdm.auto import tqdm
 
     prog = program_of(tree)
-    _share_first_compile()
+    if isinstance(prog, Program):  # (kernels run here, not on a cluster)
+        _share_first_compile()
     if bounds is None and not np.all(np.asarray(prog.bounds[1]) > np.asarray(prog.bounds[0])):
         return Mesh.empty()  # the tree's support is empty or flat: no solid
     lo, hi = _check_bounds(prog.bounds if bounds is None else bounds)
@@ -136,10 +138,15 @@ def polygonize(
 
 def _share_first_compile() -> None:
     """On a first run (the lanes walk missing from the cache), a partner process compiles the
-    lanes walk (the vertices' gradients and colours: the last step) while this one compiles the
-    lattice's kernels (``runtime.partner``)."""
+    contouring's kernels and the lanes walk (the last two steps: the vertices' gradients and
+    colours) while this one compiles the culling's and the sampling's (``runtime.partner``)."""
     if not lanes_walk.ensure(compile=False):
-        partner.start({lanes_walk.symbol: f"{batch.__name__}:lanes_walk"})
+        partner.start({f"{_kernels.__name__}._fill_part": f"{__name__}:_triangles_unit",
+                       lanes_walk.symbol: f"{batch.__name__}:lanes_walk"})
+
+
+def _triangles_unit() -> None:
+    compile_triangles(LATTICE_BLOCK, FINE, ISO)
 
 
 def _place(prog, grid: _Grid, regions, keys, f0, f1, centres, vertex_start):

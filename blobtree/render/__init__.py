@@ -36,7 +36,7 @@ from .tiles import LOOKS, RenderSettings, compile_tracer, render_tile, trace_rec
 from .trace import intersect_rays
 
 __all__ = ["LOOKS", "Camera", "Light", "RenderSettings", "intersect", "render", "render_tile",
-           "save_image", "tile_side", "tiles", "warm_kernels"]
+           "save_image", "tile_side", "tiles", "warm_kernels", "warming"]
 
 Rect = tuple[int, int, int, int]
 #: Renders rectangles somewhere: (prog, camera, lights, settings, rects) -> (rect, pixels)...
@@ -86,6 +86,18 @@ def warm_kernels() -> threading.Thread:
     thread = threading.Thread(target=run, name="blobtree-warm-kernels", daemon=True)
     thread.start()
     return thread
+
+
+@contextlib.contextmanager
+def warming(enabled: bool = True) -> Iterator[None]:
+    """:func:`warm_kernels` during the block (if ``enabled``), joined at its end: not left
+    loading (or compiling) as the interpreter exits."""
+    thread = warm_kernels() if enabled else None
+    try:
+        yield
+    finally:
+        if thread is not None:
+            thread.join()
 
 
 def _pixel() -> tuple:
