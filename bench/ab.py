@@ -20,11 +20,13 @@ seconds (the best of ``--best`` runs in one process) instead of CPU seconds.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import shutil
 import subprocess
 import sys
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -76,14 +78,27 @@ print(min(out[0]), min(out[1]))
 MEASURES = {"render": ("no shadows", "shadows"), "mesh": ("polygonize", "field at vertices")}
 
 
-def checkout(rev: str, into: Path) -> Path:
-    """A worktree of ``rev`` under ``into``, or the working tree itself for ``rev`` None."""
-    if rev is None:
-        return ROOT
-    path = into / rev.replace("/", "_")
-    subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", "-q", str(path), rev],
-                   check=True)
-    return path
+@contextlib.contextmanager
+def checkouts(revs: list[str | None], prefix: str) -> Iterator[tuple[list[Path], Path]]:
+    """Worktrees of ``revs`` (the working tree itself for None) and a scratch directory, all
+    under a temporary directory named ``prefix``...; removed at the end."""
+    tmp = Path(tempfile.mkdtemp(prefix=prefix))
+    dirs: list[Path] = []
+    try:
+        for rev in revs:
+            if rev is None:
+                dirs.append(ROOT)
+                continue
+            dirs.append(tmp / rev.replace("/", "_"))
+            subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", "-q",
+                            str(dirs[-1]), rev], check=True)
+        yield dirs, tmp
+    finally:
+        for d in dirs:
+            if d != ROOT:
+                subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(d)],
+                               check=False)
+        shutil.rmtree(tmp, ignore_errors=True)
 
 
 def run(dirs: list[Path], caches: list[Path], tmp: Path, task: str, model: str,
@@ -135,10 +150,7 @@ def main() -> None:
     alone = args.threads == "all"
     if len(os.sched_getaffinity(0)) < 2:
         sys.exit("ab.py needs two cores")
-    tmp = Path(tempfile.mkdtemp(prefix="blobtree-ab-"))
-    dirs = []
-    try:
-        dirs = [checkout(args.base, tmp), checkout(args.new, tmp)]
+    with checkouts([args.base, args.new], "blobtree-ab-") as (dirs, tmp):
         caches = [tmp / f"cache{k}" for k in range(2)]
         run(dirs, caches, tmp, args.task, args.model, 0, 32, alone, 1)  # compile, untimed
         ratios = []
@@ -156,12 +168,6 @@ def main() -> None:
         for k, name in enumerate(names):
             values = sorted(v[k] for v in ratios)
             print(f"median new/base, {name}: {values[len(values) // 2]:.3f}")
-    finally:
-        for d in dirs:
-            if d != ROOT:
-                subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(d)],
-                               check=False)
-        shutil.rmtree(tmp, ignore_errors=True)
 
 
 if __name__ == "__main__":

@@ -15,18 +15,16 @@ from __future__ import annotations
 
 import argparse
 import os
-import shutil
 import statistics
 import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import record  # noqa: E402
-from ab import ROOT, checkout  # noqa: E402
+from ab import checkouts  # noqa: E402
 
 #: The commands timed, in order, as a new user runs them.
 COMMANDS = (["render", "murex", "--size", "128x128", "-o", "murex.png"],
@@ -55,12 +53,9 @@ def main() -> None:
     m = record.machine()
     print(f"{m['cpu']} ({m['cores']} cores, {m['simd']}); wall seconds, first / second run, "
           "each round from an empty numba cache")
-    tmp = Path(tempfile.mkdtemp(prefix="blobtree-first-run-"))
     revs = args.revs or [None]
-    dirs: list[Path] = []
     extra: list[list[list[float]]] = [[] for _ in revs]  # per rev, per round: per command
-    try:
-        dirs.extend(checkout(rev, tmp) for rev in revs)
+    with checkouts(revs, "blobtree-first-run-") as (dirs, tmp):
         for r in range(args.rounds):
             for k in (range(len(revs)) if r % 2 == 0 else reversed(range(len(revs)))):
                 cache, work = tmp / f"cache-{k}-{r}", tmp / f"work-{k}-{r}"
@@ -74,12 +69,6 @@ def main() -> None:
                 print(f"round {r + 1}, {revs[k] or 'working tree'}: {'; '.join(cells)}; "
                       f"extra: render murex {extras[0]:.1f} s, the three {sum(extras):.1f} s",
                       flush=True)
-    finally:
-        for d in dirs:
-            if d != ROOT:
-                subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(d)],
-                               check=False)
-        shutil.rmtree(tmp, ignore_errors=True)
     if path is not None:
         record.append("first_run.py", _rows(revs, extra), path)
 

@@ -15,6 +15,8 @@ import pytest
 from blobtree.runtime import partner
 
 ROOT = Path(__file__).resolve().parents[1]
+#: The Lipschitz walk, as the compile listener names it.
+WALK = "blobtree.engine.walk.walk_lipschitz"
 
 #: Runs in a fresh process (its argv[1]: the partner's units, or "" for none); prints the
 #: functions this process compiled and a few field and bound values.
@@ -25,17 +27,9 @@ from numba.core import event
 from blobtree import Point, Blend, Cylinder
 from blobtree.engine import bounds
 from blobtree.runtime import partner
+from compiled import Compiled
 
-class Count(event.Listener):
-    def __init__(self):
-        self.names = []
-    def on_start(self, ev):
-        pass
-    def on_end(self, ev):
-        f = ev.data["dispatcher"].py_func
-        self.names.append(f.__qualname__)
-
-count = Count()
+count = Compiled()
 event.register("numba:compile", count)
 key = bounds.lipschitz_walk.symbol
 units = json.loads(sys.argv[1])
@@ -56,8 +50,8 @@ print(json.dumps({"loaded": loaded, "compiled": count.names,
 
 def _run(tmp_path: Path, cache: str, units: dict[str, str], how: str = "",
          threads: int = 2) -> dict:
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / cache), "PYTHONPATH": str(ROOT),
-           "NUMBA_NUM_THREADS": str(threads)}
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / cache),
+           "PYTHONPATH": f"{ROOT}{os.pathsep}{ROOT / 'tests'}", "NUMBA_NUM_THREADS": str(threads)}
     run = subprocess.run([sys.executable, "-c", _SCRIPT, json.dumps(units), how],
                          capture_output=True, text=True, env=env, cwd=tmp_path)
     assert run.returncode == 0, run.stderr[-2000:]
@@ -75,8 +69,8 @@ def test_a_partners_walk_is_loaded_not_compiled_and_bounds_the_same(tmp_path):
     shared = _run(tmp_path, "shared", _lipschitz_unit())
     alone = _run(tmp_path, "alone", {}, threads=1)
     assert shared["loaded"] and not alone["loaded"]  # the partner left it in the cache
-    assert "walk_lipschitz" not in shared["compiled"]
-    assert "walk_lipschitz" in alone["compiled"]  # (the listener sees the walk compiled)
+    assert WALK not in shared["compiled"]
+    assert WALK in alone["compiled"]  # (the listener sees the walk compiled)
     assert shared["bounds"] == alone["bounds"] and shared["field"] == alone["field"]
 
 
@@ -84,7 +78,7 @@ def test_a_partners_walk_is_loaded_not_compiled_and_bounds_the_same(tmp_path):
 def test_a_killed_partner_costs_only_time(tmp_path):
     killed = _run(tmp_path, "killed", _lipschitz_unit(), "kill")
     alone = _run(tmp_path, "alone", {}, threads=1)
-    assert "walk_lipschitz" in killed["compiled"]  # compiled here instead
+    assert WALK in killed["compiled"]  # compiled here instead
     assert killed["bounds"] == alone["bounds"] and killed["field"] == alone["field"]
 
 
