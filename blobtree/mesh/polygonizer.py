@@ -141,11 +141,13 @@ def _share_first_compile() -> None:
     contouring's kernels and the lanes walk (the last two steps: the vertices' gradients and
     colours) while this one compiles the culling's and the sampling's (``runtime.partner``)."""
     if not lanes_walk.ensure(compile=False):
-        partner.start({f"{_kernels.__name__}._fill_part": f"{__name__}:_triangles_unit",
+        partner.start({partner.kernel_key(_kernels._fill_part.py_func):
+                       f"{__name__}:_triangles_unit",
                        lanes_walk.symbol: f"{batch.__name__}:lanes_walk"})
 
 
 def _triangles_unit() -> None:
+    """Compile the contouring's kernels (the partner's unit)."""
     compile_triangles(LATTICE_BLOCK, FINE, ISO)
 
 

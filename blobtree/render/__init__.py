@@ -68,9 +68,9 @@ def warm_kernels() -> threading.Thread:
     (numba's compiler lock).  The pixel's errors are not reported: the real render reports its
     own.
 
-    On a first run (the bound passes missing from the cache) a partner process compiles the
-    bound passes and the tracer (:func:`tracer_unit`) while this one compiles the point and rows
-    walks the tracer calls (``runtime.partner``): the two halves on two cores."""
+    On a first run (the Lipschitz pass missing from the cache) a partner process compiles the
+    Lipschitz pass and the tracer (:func:`tracer_unit`) while this one compiles the point,
+    bounded and rows walks the tracer calls (``runtime.partner``): two halves on two cores."""
 
     def run() -> None:
         with contextlib.suppress(Exception):
@@ -108,7 +108,7 @@ def _pixel() -> tuple:
 
 
 #: The tracer's kernel, as the partner process's unit is named (``runtime.partner``).
-TRACER = f"{tiles_module.__name__}._render_blocks"
+TRACER = partner.kernel_key(tiles_module._render_blocks.py_func)
 
 
 def tracer_unit() -> None:

@@ -60,7 +60,7 @@ class _QuickCache(FunctionCache):
         (:meth:`_load_overload`).  A kernel a partner process is compiling
         (``runtime.partner``) is waited for."""
         rtsys.initialize(target_context)
-        partner.wait(f"{self._py_func.__module__}.{self._py_func.__qualname__}")
+        partner.wait(partner.kernel_key(self._py_func))
         with self._guard_against_spurious_io_errors():
             return self._load_overload(sig, target_context)
 

@@ -26,7 +26,7 @@ import importlib
 import subprocess
 import sys
 import threading
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 
 from .threads import threads
 
@@ -75,6 +75,12 @@ def _follow(proc: subprocess.Popen, events: dict[str, threading.Event]) -> None:
         proc.wait()
         for e in events.values():
             e.set()
+
+
+def kernel_key(fn: Callable) -> str:
+    """The key of a unit that compiles the kernel of Python function ``fn`` (what the cache
+    waits for before loading that kernel)."""
+    return f"{fn.__module__}.{fn.__qualname__}"
 
 
 def wait(key: str) -> None:
