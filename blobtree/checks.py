@@ -35,7 +35,7 @@ MAX_ANGLE = 1e6
 
 
 def is_number(v: Any) -> bool:
-    return isinstance(v, numbers.Real) and not isinstance(v, bool | np.bool_)
+    return type(v) is float or (isinstance(v, numbers.Real) and not isinstance(v, bool | np.bool_))
 
 
 def frozen(a: np.ndarray) -> np.ndarray:
@@ -147,11 +147,11 @@ class Vec3(Kind):
         items = None
         if not isinstance(value, str) and is_vector(value):
             try:
-                items = np.array([float(v) for v in value])
+                items = [float(v) for v in value]
             except OverflowError:
                 items = None
-        if items is None or not np.all(np.isfinite(items)) or np.any(np.abs(items) > self.limit) \
-                or np.any(np.abs(items) < self.least):
+        # |x| <= limit is False for NaN and inf: every item is finite and within the limit
+        if items is None or not all(self.least <= abs(x) <= self.limit for x in items):
             raise ValueError(f"{name} must be {self.allowed()}, got {short_repr(value)}")
         return frozen(items)
 

@@ -31,10 +31,13 @@ def axis_vector(axis: str | Sequence[float], name: str = "axis") -> np.ndarray:
     return v / n
 
 
+_DEGREES = angle()
+
+
 def rotation_matrix(axis: str | Sequence[float], degrees: float) -> np.ndarray:
     """3x3 rotation by ``degrees`` about ``axis`` (right-hand rule), Rodrigues' formula."""
     u = axis_vector(axis)
-    t = math.radians(angle().check("degrees", degrees))
+    t = math.radians(_DEGREES.check("degrees", degrees))
     k = np.array([[0.0, -u[2], u[1]], [u[2], 0.0, -u[0]], [-u[1], u[0], 0.0]])
     return np.eye(3) + math.sin(t) * k + (1.0 - math.cos(t)) * (k @ k)
 
@@ -65,8 +68,12 @@ IDENTITY = affine(np.eye(3))
 
 
 def compose(outer: np.ndarray, inner: np.ndarray) -> np.ndarray:
-    """The affine map x -> outer(inner(x))."""
-    return affine(outer[:, :3] @ inner[:, :3], outer[:, :3] @ inner[:, 3] + outer[:, 3])
+    """The affine map x -> outer(inner(x)): [A_o A_i | A_o b_i + b_o]."""
+    a = outer[:, :3]
+    m = np.empty((3, 4))
+    m[:, :3] = a @ inner[:, :3]
+    m[:, 3] = a @ inner[:, 3] + outer[:, 3]
+    return m
 
 
 def invert(m: np.ndarray) -> np.ndarray:
@@ -85,7 +92,8 @@ def empty_box() -> Box:
 
 
 def is_empty(box: Box) -> bool:
-    return bool(np.any(box[0] > box[1]))
+    lo, hi = box
+    return bool(lo[0] > hi[0] or lo[1] > hi[1] or lo[2] > hi[2])
 
 
 def box_union(boxes: Sequence[Box]) -> Box:

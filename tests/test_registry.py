@@ -9,6 +9,7 @@ import pickle
 import numpy as np
 import pytest
 from hypothesis import Phase, find, given, settings
+from hypothesis import strategies as st
 from hypothesis.errors import NoSuchExample
 
 import blobtree as bt
@@ -16,6 +17,7 @@ from blobtree.engine import dispatch
 from blobtree.io import dumps, loads, schema
 from blobtree.nodes import REGISTRY
 from blobtree.nodes.node import register
+from blobtree.nodes.params import REQUIRED
 from tests.trees import node_of, trees
 
 TYPES = sorted(REGISTRY)
@@ -47,6 +49,28 @@ def test_every_type_declares_a_complete_spec(name):
     if cls.KIND == "primitive":
         assert callable(cls.KERNELS.s) and callable(cls.KERNELS.uv)
         assert cls.LAYOUT.size == len(cls.pack(_example(cls)))
+
+
+@pytest.mark.parametrize("name", TYPES)
+def test_constructor_binds_as_its_signature_does(name):
+    """Children and parameters by position and by name give the node the signature binds; an
+    unknown, a repeated or a missing argument is Python's TypeError, naming the type."""
+    cls = REGISTRY[name]
+    node = find(node_of(cls, st.just(bt.Point(radius=0.5))), lambda n: True, settings=FIRST)
+    values = node.values()
+    assert cls(*node.children, **values) == node
+    if cls._positional:  # unary and leaf types take their parameters by position too
+        assert cls(*node.children, *values.values()) == node
+        first = cls.PARAMS[0].name
+        with pytest.raises(TypeError, match=f"{cls.__name__}: .*{first}"):
+            cls(*node.children, values[first], **{first: values[first]})
+    with pytest.raises(TypeError, match=f"{cls.__name__}: .*nonsense"):
+        cls(*node.children, nonsense=1.0, **values)
+    required = [p.name for p in cls.PARAMS if p.default is REQUIRED]
+    if required:
+        del values[required[0]]
+        with pytest.raises(TypeError, match=f"{cls.__name__}: .*{required[0]}"):
+            cls(*node.children, **values)
 
 
 def _example(cls):

@@ -418,9 +418,10 @@ def _stack_depth(code: np.ndarray) -> int:
     return int(max(0, sp.max(), pp.max(), working.max())) + 2  # children while it runs
 
 
-def expanded_size(tree: Node) -> int:
-    """About how many instructions ``tree`` compiles to, counted over its distinct nodes (a
-    shared subtree counts at each of its places, as the program repeats it)."""
+def expanded_size(tree: Node, nodes: list[Node] | None = None) -> int:
+    """About how many instructions ``tree`` compiles to, counted over its distinct nodes
+    (``nodes``: ``tree.unique()`` if already listed; a shared subtree counts at each of its
+    places, as the program repeats it)."""
     size: dict[int, int] = {}
 
     def size_of(node: Node) -> int:  # a program child may be a child moved by new affine nodes
@@ -428,7 +429,7 @@ def expanded_size(tree: Node) -> int:
             node = node.child
         return size[id(node)]
 
-    for node in tree.unique():
+    for node in tree.unique() if nodes is None else nodes:
         kids = node.program_children() if node.KIND == "operator" else node.children
         inner = sum(size_of(c) for c in kids)
         own = {"affine": 0, "primitive": 1, "paint": 2, "warp": 3}.get(node.KIND, 2)
@@ -484,30 +485,32 @@ def compile_tree(tree: Node, reuse: Reuse | None = None) -> Program:
     program as compiled afresh), then hold this tree's."""
     if not isinstance(tree, Node):
         raise ValueError(f"tree must be a BlobTree node, got {type(tree).__name__[:60]}")
-    n = expanded_size(tree)
+    nodes = tree.unique()
+    n = expanded_size(tree, nodes)
     if n > MAX_INSTRUCTIONS:
         raise ValueError(
             f"tree expands to about {n:,} instructions, more than {MAX_INSTRUCTIONS:,}: a "
             "subtree shared in many places is repeated at each (e.g. blends of blends of one "
             "node); build it with fewer repetitions")
     em = _Emitter()
-    for node in tree.unique():  # images first, so no subtree's instructions hold one
+    for node in nodes:  # images first, so no subtree's instructions hold one
         if hasattr(node, "image_key"):
             em.image_offset(node)
     if reuse is not None:  # copies need the images where they were
         em.reuse = reuse if reuse.program is not None and reuse.images == em.images else Reuse()
-    em.emit(_value_root(tree), geo.IDENTITY)
+    em.emit(_value_root(tree, nodes), geo.IDENTITY)
     prog = em.program(tree)
     if reuse is not None:
         reuse.program, reuse.images, reuse.spans = prog, dict(em.images), em.spans
     return prog
 
 
-def _value_root(tree: Node) -> Node:
+def _value_root(tree: Node, nodes: list[Node]) -> Node:
     """The tree to emit: under a one-child union (the same field) where it holds an operator
     that ``WANTS_VALUES`` below a root whose bound takes no values, so that the tracer and the
-    mesher take the value-aware bound pass (``bounds.bounds_use_values`` reads the root)."""
+    mesher take the value-aware bound pass (``bounds.bounds_use_values`` reads the root).
+    ``nodes``: the tree's distinct nodes."""
     root_takes_values = tree.KIND == "operator" and tree.KERNELS.bound is not None
-    if root_takes_values or not any(getattr(n, "WANTS_VALUES", False) for n in tree.unique()):
+    if root_takes_values or not any(getattr(n, "WANTS_VALUES", False) for n in nodes):
         return tree
     return REGISTRY["union"](tree)

@@ -67,6 +67,9 @@ def register(cls: type[Node]) -> type[Node]:
         raise TypeError(f"{cls.__name__}: KIND {cls.KIND!r} needs KERNELS of type "
                         f"{expected.get(cls.KIND, object).__name__}")
     cls.__signature__ = cls._signature()
+    cls._defaults = {p.name: p.default for p in cls.PARAMS}
+    cls._positional = () if cls.ARITY[1] is None or cls.ARITY[1] > 1 else \
+        tuple(p.name for p in cls.PARAMS)
     if cls.METHOD:
         def method(self: Node, *args: Any, **kwargs: Any) -> Node:
             return cls.chain(self, *args, **kwargs)
@@ -130,6 +133,10 @@ class Node:
     #: (least, most) children; most None for any number
     ARITY: ClassVar[tuple[int, int | None]] = (0, 0)
     KERNELS: ClassVar[Any] = None
+    #: every parameter's default (REQUIRED where it has none), set by :func:`register`
+    _defaults: ClassVar[dict[str, Any]] = {}
+    #: the parameters that may be given by position, in order, set by :func:`register`
+    _positional: ClassVar[tuple[str, ...]] = ()
     #: name of the chainable method (``node.bend(...)``) a unary type adds to every node
     METHOD: ClassVar[str | None] = None
 
@@ -164,19 +171,24 @@ class Node:
         nodes = next((i for i, a in enumerate(args) if not isinstance(a, Node)), len(args))
         if hi is not None and nodes > hi:
             raise ValueError(f"{cls.__name__} takes {arity_words(lo, hi)} children, got {nodes}")
-        try:
-            bound = cls.__signature__.bind(self, *args, **kwargs)
-        except TypeError as e:  # an unknown or missing argument: Python's error, with the type
-            raise TypeError(f"{cls.__name__}: {e}") from None
-        bound.apply_defaults()
-        values = dict(bound.arguments)
-        values.pop("self")
-        if "child" in values:
-            children: tuple = (values.pop("child"),)
+        # children by position, then parameters (positional only where there is no list of
+        # children) and by name: bound here as the signature would bind them, fast
+        given = args[nodes:]
+        named = cls._positional[:len(given)]
+        if (nodes == lo or hi != lo) and len(named) == len(given) \
+                and cls._defaults.keys() >= kwargs.keys() and not kwargs.keys() & named:
+            values = {**cls._defaults, **dict(zip(named, given, strict=True)), **kwargs}
+            children: tuple = args[:nodes]
+            if any(v is REQUIRED for v in values.values()):
+                self._bind(args, kwargs)  # raises Python's error for the missing argument
         else:
-            children = tuple(values.pop("children", ()))
-            if len(children) == 1 and isinstance(children[0], list | tuple):
-                children = tuple(children[0])
+            values = self._bind(args, kwargs)
+            if "child" in values:
+                children = (values.pop("child"),)
+            else:
+                children = tuple(values.pop("children", ()))
+                if len(children) == 1 and isinstance(children[0], list | tuple):
+                    children = tuple(children[0])
         if len(children) < lo or (hi is not None and len(children) > hi):
             raise ValueError(f"{cls.__name__} takes {arity_words(lo, hi)} children, got "
                              f"{len(children)}")
@@ -192,6 +204,18 @@ class Node:
         for p in cls.PARAMS:
             self._set(p.name, p.kind.check(p.name, values[p.name]))
         self._check()
+
+    def _bind(self, args: tuple, kwargs: dict[str, Any]) -> dict[str, Any]:
+        """The constructor's arguments by name, bound by its signature (Python's error for an
+        unknown or missing argument, with the type's name)."""
+        try:
+            bound = type(self).__signature__.bind(self, *args, **kwargs)
+        except TypeError as e:
+            raise TypeError(f"{type(self).__name__}: {e}") from None
+        bound.apply_defaults()
+        values = dict(bound.arguments)
+        values.pop("self")
+        return values
 
     def _check(self) -> None:
         """Checks across parameters (and derived values, set with ``_set``); ValueError."""
