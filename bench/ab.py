@@ -3,7 +3,7 @@ pinned to its own core, so both meet the same machine (clock, neighbours); the c
 round.  Timings of one process alone here drift by 10-20% between runs, more than most changes
 worth measuring; paired runs agree within a few percent.
 
-    python bench/ab.py BASE [NEW] [--model murex] [--size 256] [--rounds 3] [--task mesh]
+    python bench/ab.py BASE [NEW] [--model murex] [--size 256] [--rounds 3] [--task mesh|live]
                        [--threads 1|all] [--best 1]
 
 BASE and NEW are git revisions (NEW defaults to the working tree); each is checked out into a
@@ -11,6 +11,11 @@ temporary worktree with its own numba cache, compiled once before timing.  Print
 CPU seconds (one thread each) and NEW / BASE: for ``--task render`` (the default) a render
 without and with shadows; for ``--task mesh`` ``polygonize`` at resolution ``--size`` and the
 field at that mesh's vertices (one batch).
+
+``--task live`` times ``bench/bench_live.py``'s changes of a spec (``--model``: a shipped spec)
+as the explorer's first picture at ``--size`` pixels, without shadows: the tree, program and
+framing (the parts ``LiveShell.timings`` reports; wall seconds) and the whole picture, each
+summed over the changes.
 
 ``--threads all`` measures what one thread cannot see (parallel overheads): the two checkouts
 then run one after the other, alternating, each on all cores, and each round prints wall
@@ -73,9 +78,30 @@ for _ in range(best):
     prog.field(mesh.vertices)
     out[1].append(clock() - start)
 print(min(out[0]), min(out[1]))
+""", "live": PRELUDE + """
+from bench.bench_live import CHANGES
+from blobtree.live import LiveShell, with_control
+from blobtree.models.spec import load_spec
+base = load_spec(sys.argv[2])
+size = int(sys.argv[3])
+live = LiveShell(base)
+live.picture(size, size, shadows=False)
+out = [0.0, 0.0]
+for name, value in CHANGES:
+    times = []
+    for r in range(best):  # a new value each run: nothing kept from the run before
+        live.set(with_control(base, name, value * (1.0 + 0.001 * r)))
+        start = clock()
+        live.picture(size, size, shadows=False)
+        t = live.timings
+        times.append((t["tree"] + t["program"] + t["framing"], clock() - start))
+    out[0] += min(times)[0]
+    out[1] += min(times, key=lambda x: x[1])[1]
+print(*out)
 """}
 #: What each task's two numbers are.
-MEASURES = {"render": ("no shadows", "shadows"), "mesh": ("polygonize", "field at vertices")}
+MEASURES = {"render": ("no shadows", "shadows"), "mesh": ("polygonize", "field at vertices"),
+            "live": ("tree, program and framing", "first picture")}
 
 
 @contextlib.contextmanager

@@ -150,6 +150,8 @@ def test_a_program_compiled_with_reuse_is_the_one_compiled_afresh():
         fresh = compile_tree(bt.models.shell(spec, seed))
         for name in ("code", "params", "boxes", "lips"):
             assert np.array_equal(getattr(reused, name), getattr(fresh, name)), name
+        for a, b in zip(reused.bounds, fresh.bounds, strict=True):
+            assert np.array_equal(a, b)
         assert reused.depth == fresh.depth and len(reuse.spans) > 10
 
 

@@ -216,6 +216,10 @@ class Reuse:
         self.images: dict[str, int] = {}
         #: (node key, frame, look) -> (code start, code end, params start, params end, box)
         self.spans: dict[tuple[str, bytes, int], tuple[int, int, int, int, geo.Box]] = {}
+        #: node key -> its boxes by frame (``Node.box``'s memo), handed to equal nodes
+        self.boxes: dict[str, dict[bytes, geo.Box]] = {}
+        #: (children's keys, frame) -> the two groups :func:`_split` made of them
+        self.splits: dict[tuple[tuple[str, ...], bytes], tuple[np.ndarray, np.ndarray]] = {}
 
 
 class _Emitter:
@@ -225,6 +229,8 @@ class _Emitter:
         self.reuse: Reuse | None = None
         #: this compile's subtrees by key (see :class:`Reuse`), when there is a Reuse to keep
         self.spans: dict[tuple[str, bytes, int], tuple[int, int, int, int, geo.Box]] = {}
+        #: this compile's groups (see :class:`Reuse`)
+        self.splits: dict[tuple[tuple[str, ...], bytes], tuple[np.ndarray, np.ndarray]] = {}
         self.code: list[list[int]] = []
         #: the instructions' parameters; the images come before them in ``params``
         self.params: list[float] = []
@@ -354,13 +360,24 @@ class _Emitter:
             self.add(op, extra, count=len(children))
             return geo.box_union(boxes)
         boxes = []
-        for part in _split([c.box(M) for c in children]):
+        for part in self.split(children, M):
             head = self.add(OP_BOX)
             box = self.group(op, node, [children[i] for i in sorted(part)], M, look)
             self.close(head, box)
             boxes.append(box)
         self.add(op, extra, count=2)
         return geo.box_union(boxes)
+
+    def split(self, children: list[Node], M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:func:`_split` of the children's boxes, as the reused compile split them if the
+        same children met the same frame there."""
+        if self.reuse is None:
+            return _split([c.box(M) for c in children])
+        key = (tuple(c.key for c in children), M.tobytes())
+        parts = self.reuse.splits.get(key)
+        self.splits[key] = parts = _split([c.box(M) for c in children]) if parts is None \
+            else parts
+        return parts
 
     def primitive(self, node: Primitive, M: np.ndarray, look: int) -> geo.Box:
         inv = geo.invert(M)
@@ -498,10 +515,14 @@ def compile_tree(tree: Node, reuse: Reuse | None = None) -> Program:
             em.image_offset(node)
     if reuse is not None:  # copies need the images where they were
         em.reuse = reuse if reuse.program is not None and reuse.images == em.images else Reuse()
+        for node in nodes:  # a subtree left alone is not walked again for its boxes
+            node.box_memo(reuse.boxes.get(node.key))
     em.emit(_value_root(tree, nodes), geo.IDENTITY)
     prog = em.program(tree)
     if reuse is not None:
         reuse.program, reuse.images, reuse.spans = prog, dict(em.images), em.spans
+        reuse.boxes = {node.key: node.box_memo() for node in nodes}
+        reuse.splits = em.splits
     return prog
 
 

@@ -275,14 +275,14 @@ class Node:
     @cached_property
     def key(self) -> str:
         """A digest of the type, parameters and children: equal for structurally equal trees."""
-        for node in self.unique():  # children first, so no deep recursion
-            if "key" not in node.__dict__:
-                h = hashlib.sha256(node.TYPE.encode())
-                for p in node.PARAMS:
-                    h.update(f"|{p.name}={p.kind.key(getattr(node, p.name))}".encode())
-                for c in node.children:
-                    h.update(b"|" + c.__dict__["key"].encode())
-                node.__dict__["key"] = h.hexdigest()[:32]
+        keyed = all("key" in c.__dict__ for c in self.children)
+        for node in (self,) if keyed else self.unique():  # children first: no deep recursion
+            if "key" not in node.__dict__:  # TYPE|name=value|...|child key|...
+                text = "|".join([node.TYPE,
+                                 *(f"{p.name}={p.kind.key(getattr(node, p.name))}"
+                                   for p in node.PARAMS),
+                                 *(c.__dict__["key"] for c in node.children)])
+                node.__dict__["key"] = hashlib.sha256(text.encode()).hexdigest()[:32]
         return self.__dict__["key"]
 
     def __eq__(self, other: object) -> bool:
@@ -333,9 +333,14 @@ class Node:
         """A global bound on ``|grad f|``."""
         raise NotImplementedError
 
+    def box_memo(self, known: dict[bytes, geo.Box] | None = None) -> dict[bytes, geo.Box]:
+        """The boxes :meth:`box` computed, by frame; ``known``: a structurally equal node's
+        (the same boxes), to start from if this node has none yet."""
+        return self.__dict__.setdefault("_box_memo", {} if known is None else known)
+
     def box(self, L: np.ndarray) -> geo.Box:
         """``_box``, computed once per frame (a shared subtree is not walked again)."""
-        memo = self.__dict__.setdefault("_box_memo", {})
+        memo = self.box_memo()
         key = L.tobytes()
         if key not in memo:
             lo, hi = self._box(L)
