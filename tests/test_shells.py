@@ -263,6 +263,24 @@ def test_a_pattern_changes_only_the_colours():
         bt.models.murex(pattern="plaid").program().albedo(near[:2])
 
 
+def test_a_grown_pattern_is_grown_once_for_numbers_it_does_not_depend_on():
+    """The pigment of a shell is kept between builds: changing a number the pattern does not
+    read (the varices) builds the tree without growing it again, and the shell is the one built
+    from nothing; another seed grows another."""
+    oliva = SHELLS["oliva"]
+    M._grown_image.cache_clear()
+    shell(oliva)
+    other = replace(oliva, spine_length=oliva.spine_length * 1.1)
+    kept = shell(other)
+    assert M._grown_image.cache_info().hits == 1
+    M._grown_image.cache_clear()
+    assert shell(other) == kept
+    image = M._grown_image.cache_info().currsize
+    shell(other, seed=1)
+    assert M._grown_image.cache_info().currsize == image + 1
+    assert not M._paper_textures(0)["body"].flags.writeable  # kept images cannot be changed
+
+
 # --- the command line ----------------------------------------------------------------------------
 
 def test_cli_lists_the_species_and_prints_a_spec_that_renders(tmp_path):

@@ -16,14 +16,16 @@ each documented there); the constants below are read from it.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
+from types import MappingProxyType
 
 import numpy as np
 
-from ..checks import Integer
+from ..checks import Integer, frozen
 from ..helico import place
 from ..nodes import (
     Cone,
@@ -716,10 +718,24 @@ def _pattern_texture(name: str, seed: int, spec: ShellSpec, cells: int = 512) ->
     per_cell = spec.instances * spec.theta_s * math.pi / 180.0 / lip  # rows per cell
     cells = max(16, min(cells, int(4096 / per_cell)))  # images have at most 4096 columns
     rows = max(64, min(4096, round(cells * per_cell)))
+    return _grown_image(name, cells, rows, seed)
+
+
+@functools.lru_cache(maxsize=8)
+def _grown_image(name: str, cells: int, rows: int, seed: int) -> np.ndarray:
+    """:func:`_pattern_texture`'s image (read-only; kept for the last specs: a change of any
+    other number of the spec builds the shell again without growing its pattern again)."""
     image = pigment.meinhardt(name, cells, rows, seed=seed)
     for axis in (0, 1):  # lines a cell thin would alias away: widen the (darker) pigment to 3
         image = np.minimum.reduce([np.roll(image, k, axis=axis) for k in (-1, 0, 1)])
-    return np.round(np.clip(image.transpose(1, 0, 2), 0.0, 1.0) * 255.0).astype(np.uint8)
+    return frozen(np.round(np.clip(image.transpose(1, 0, 2), 0.0, 1.0) * 255.0)
+                  .astype(np.uint8))
+
+
+@functools.lru_cache(maxsize=8)
+def _paper_textures(seed: int) -> Mapping[str, np.ndarray]:
+    """The four textures of Figure 12 for ``seed`` (read-only, kept for the last seeds)."""
+    return MappingProxyType({k: frozen(v) for k, v in shell_textures(seed).items()})
 
 
 def outer_shell(seed: int = 0, spec: ShellSpec = DEFAULT, textured: bool = True,
@@ -738,7 +754,7 @@ def outer_shell(seed: int = 0, spec: ShellSpec = DEFAULT, textured: bool = True,
     bump_rng, spine_rng = np.random.default_rng(bump_seq), np.random.default_rng(spine_seq)
     body_c, varix_c, bump_c, _ = spec.colours
     look = spec.texture if textured else "plain"
-    tex = shell_textures(seed) if look == "paper" else None
+    tex = _paper_textures(seed) if look == "paper" else None
 
     def paint_bump(b: Node) -> Node:
         return b.texture(tex["bump"], wrap=SHELL_TEXTURES["bump"].wrap) if tex else \
