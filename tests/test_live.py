@@ -155,6 +155,24 @@ def test_a_program_compiled_with_reuse_is_the_one_compiled_afresh():
         assert reused.depth == fresh.depth and len(reuse.spans) > 10
 
 
+def test_boxes_handed_on_do_not_grow_with_the_changes():
+    """A spiral changed again and again puts every subtree in new frames: the boxes each compile
+    hands to the next stay within (1 + HANDED_BOXES) times what one compile makes, not one more
+    set per change."""
+    from blobtree.engine.program import HANDED_BOXES, Reuse, compile_tree
+
+    def boxes(tree) -> int:  # entries of the distinct box memos of the tree's nodes
+        memos = {id(m): m for m in (n.box_memo() for n in tree.unique())}
+        return sum(len(m) for m in memos.values())
+
+    reuse, totals = Reuse(), []
+    for k in range(8):
+        tree = bt.models.shell(with_control(SMALL, "spiral.beta", 20.0 + k))
+        compile_tree(tree, reuse)
+        totals.append(boxes(tree))
+    assert max(totals) <= (1 + HANDED_BOXES) * totals[0]
+
+
 # ----- blobtree watch ------------------------------------------------------------------------
 def _write(path: Path, text: str) -> None:
     path.write_text(text)

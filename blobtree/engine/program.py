@@ -206,6 +206,12 @@ class Program:
         return out
 
 
+#: A node's boxes are handed to the next compile while it has them in at most this many
+#: frames: a subtree left alone keeps its frames, one moved each time (a spiral changed) would
+#: gather a frame a compile; past this it starts afresh, so the boxes kept stay bounded.
+HANDED_BOXES = 2
+
+
 class Reuse:
     """The instructions of a tree compiled before, by subtree, for :func:`compile_tree` to copy
     into the next program wherever the same subtree (by structural key) meets the same frame and
@@ -521,7 +527,8 @@ def compile_tree(tree: Node, reuse: Reuse | None = None) -> Program:
     prog = em.program(tree)
     if reuse is not None:
         reuse.program, reuse.images, reuse.spans = prog, dict(em.images), em.spans
-        reuse.boxes = {node.key: node.box_memo() for node in nodes}
+        reuse.boxes = {node.key: memo for node in nodes
+                       if len(memo := node.box_memo()) <= HANDED_BOXES}
         reuse.splits = em.splits
     return prog
 
