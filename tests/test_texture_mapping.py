@@ -174,3 +174,24 @@ def test_bounding_surface_colour_where_the_field_is_flat():
         live = fr > 1e-9
         assert (fr[live] == 1.0).sum() > 100  # the flat core is sampled
         np.testing.assert_allclose(c[live], cr[live], rtol=1e-9, atol=1e-9)
+
+
+def test_an_image_is_kept_contiguous_and_keyed_by_its_pixels():
+    """A read-only image given in another memory order is kept C-ordered (its digest would copy
+    it at every key otherwise); the digest kept for a read-only image is its pixels' digest, the
+    same as a writable copy's, and another image gets its own."""
+    from blobtree.texture.mapping import image_digest
+
+    rng = np.random.default_rng(5)
+    pixels = rng.integers(0, 256, (6, 4, 3), dtype=np.uint8)
+    across = np.asfortranarray(pixels)
+    across.setflags(write=False)
+    node = bt.Point().texture(across)
+    assert node.image.flags.c_contiguous and np.array_equal(node.image, pixels)
+    kept = node.image
+    assert image_digest(kept) == image_digest(kept) == image_digest(pixels.copy())
+    other = pixels.copy()
+    other[0, 0, 0] ^= 1
+    other.setflags(write=False)
+    assert image_digest(other) != image_digest(kept)
+    assert bt.Point().texture(kept).key == node.key

@@ -728,8 +728,8 @@ def _grown_image(name: str, cells: int, rows: int, seed: int) -> np.ndarray:
     image = pigment.meinhardt(name, cells, rows, seed=seed)
     for axis in (0, 1):  # lines a cell thin would alias away: widen the (darker) pigment to 3
         image = np.minimum.reduce([np.roll(image, k, axis=axis) for k in (-1, 0, 1)])
-    return frozen(np.round(np.clip(image.transpose(1, 0, 2), 0.0, 1.0) * 255.0)
-                  .astype(np.uint8))
+    return frozen(np.ascontiguousarray(
+        np.round(np.clip(image.transpose(1, 0, 2), 0.0, 1.0) * 255.0).astype(np.uint8)))
 
 
 @functools.lru_cache(maxsize=8)

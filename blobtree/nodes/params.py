@@ -125,7 +125,8 @@ class Image(Kind):
 
     def check(self, name: str, value: Any) -> np.ndarray:
         if isinstance(value, np.ndarray) and value.dtype == np.uint8 and value.ndim == 3 \
-                and value.shape[2] == 3 and not value.flags.writeable:
+                and value.shape[2] == 3 and not value.flags.writeable \
+                and value.flags.c_contiguous:
             return value
         return frozen(tex.load_image(value))
 

@@ -25,6 +25,7 @@ import hashlib
 import io
 import math
 import os
+import weakref
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from typing import Any
@@ -95,11 +96,25 @@ def load_image(source: TextureSource) -> np.ndarray:
     return np.round(arr * 255.0).astype(np.uint8)
 
 
+#: Digests of read-only images that own their pixels, by array (the nodes sharing one image,
+#: e.g. a grown pattern kept between builds, hash it once).
+_DIGESTS: dict[int, tuple[weakref.ref, str]] = {}
+
+
 def image_digest(image: np.ndarray) -> str:
     """A content key for an image: equal images share one copy in programs and scene files."""
+    fixed = not image.flags.writeable and image.flags.owndata
+    if fixed:
+        known = _DIGESTS.get(id(image))
+        if known is not None and known[0]() is image:
+            return known[1]
     h = hashlib.sha256(np.ascontiguousarray(image).tobytes())
     h.update(str(image.shape).encode())
-    return "sha256:" + h.hexdigest()[:32]
+    digest = "sha256:" + h.hexdigest()[:32]
+    if fixed:
+        key = id(image)
+        _DIGESTS[key] = (weakref.ref(image, lambda _, key=key: _DIGESTS.pop(key, None)), digest)
+    return digest
 
 
 def image_to_text(image: np.ndarray) -> str:
