@@ -377,12 +377,12 @@ class _Emitter:
     def split(self, children: list[Node], M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """:func:`_split` of the children's boxes, as the reused compile split them if the
         same children met the same frame there."""
-        if self.reuse is None:
-            return _split([c.box(M) for c in children])
-        key = (tuple(c.key for c in children), M.tobytes())
-        parts = self.reuse.splits.get(key)
-        self.splits[key] = parts = _split([c.box(M) for c in children]) if parts is None \
-            else parts
+        key = None if self.reuse is None else (tuple(c.key for c in children), M.tobytes())
+        parts = None if key is None else self.reuse.splits.get(key)
+        if parts is None:
+            parts = _split([c.box(M) for c in children])
+        if key is not None:
+            self.splits[key] = parts
         return parts
 
     def primitive(self, node: Primitive, M: np.ndarray, look: int) -> geo.Box:
