@@ -371,15 +371,21 @@ def test_tiles_assemble_into_identical_bytes(samples):
 
 
 def test_default_tile_is_the_largest_that_keeps_every_thread_busy():
-    from blobtree.render import TILE_SIDES, TILES_PER_THREAD, tile_side
+    from blobtree.render import FEW_TILES, SMALL_TILE, TILE_SIDES, TILES_PER_THREAD, tile_side
 
-    for w, h, threads in ((1600, 1600, 2), (1024, 1024, 2), (800, 600, 1), (64, 64, 2),
-                          (4000, 300, 8), (1, 1, 1)):
+    for w, h, threads in ((1600, 1600, 2), (1024, 1024, 2), (800, 600, 1), (512, 512, 2),
+                          (256, 256, 2), (128, 128, 2), (64, 64, 2), (4000, 300, 8), (1, 1, 1)):
         side = tile_side(w, h, threads)
-        count = {s: -(-w // s) * -(-h // s) for s in TILE_SIDES}
+        count = {s: -(-w // s) * -(-h // s) for s in (*TILE_SIDES, SMALL_TILE)}
         busy = [s for s in TILE_SIDES if count[s] >= TILES_PER_THREAD * threads]
-        assert side == (max(busy) if busy else min(TILE_SIDES))
-    assert tile_side(1600, 1600, 2) > tile_side(256, 256, 2)
+        if busy:
+            assert side == max(busy)
+        elif count[min(TILE_SIDES)] >= FEW_TILES * threads:
+            assert side == min(TILE_SIDES)
+        else:  # a small picture: smaller tiles, enough of them or the smallest
+            assert SMALL_TILE <= side < min(TILE_SIDES)
+            assert count[side] >= FEW_TILES * threads or side == SMALL_TILE
+    assert tile_side(1600, 1600, 2) > tile_side(256, 256, 2) > tile_side(128, 128, 2)
 
 
 def test_tiles_cover_the_image_once():

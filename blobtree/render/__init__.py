@@ -49,15 +49,27 @@ TileSource = Callable[[Any, Camera, list[Light], RenderSettings, list[Rect]],
 #: tiles keep the cores busy to the end.
 TILE_SIDES = (128, 64)
 TILES_PER_THREAD = 48
+#: A small picture, with fewer than ``FEW_TILES`` tiles of the smallest side per thread, takes
+#: tiles halved down to ``SMALL_TILE`` until it has them: a 128x128 picture's four 64-pixel
+#: tiles left one of two cores idle for a third of the render (0.176 s, against 0.153 s in
+#: sixteen 32-pixel tiles, the Murex's explorer preview; 32 was slower at 512x512).
+FEW_TILES, SMALL_TILE = 8, 32
 
 
 def tile_side(width: int, height: int, threads: int) -> int:
     """The default tile side for a width x height image on ``threads`` cores (see
-    :data:`TILE_SIDES`)."""
+    :data:`TILE_SIDES` and :data:`FEW_TILES`)."""
+
+    def count(side: int) -> int:
+        return -(-width // side) * -(-height // side)
+
     for side in TILE_SIDES:
-        if -(-width // side) * -(-height // side) >= TILES_PER_THREAD * threads:
+        if count(side) >= TILES_PER_THREAD * threads:
             return side
-    return TILE_SIDES[-1]
+    side = TILE_SIDES[-1]
+    while side > SMALL_TILE and count(side) < FEW_TILES * threads:
+        side //= 2
+    return side
 
 
 def warm_kernels() -> threading.Thread:
