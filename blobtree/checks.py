@@ -159,7 +159,7 @@ class Vec3(Kind):
         return [float(v) for v in value]
 
     def key(self, value) -> str:
-        return ",".join(float(v).hex() for v in value)
+        return ",".join([float(v).hex() for v in value])
 
 
 def is_vector(value: Any) -> bool:

@@ -32,6 +32,8 @@ def axis_vector(axis: str | Sequence[float], name: str = "axis") -> np.ndarray:
 
 
 _DEGREES = angle()
+_EYE = np.eye(3)
+_EYE.setflags(write=False)
 
 
 def rotation_matrix(axis: str | Sequence[float], degrees: float) -> np.ndarray:
@@ -39,7 +41,7 @@ def rotation_matrix(axis: str | Sequence[float], degrees: float) -> np.ndarray:
     u = axis_vector(axis)
     t = math.radians(_DEGREES.check("degrees", degrees))
     k = np.array([[0.0, -u[2], u[1]], [u[2], 0.0, -u[0]], [-u[1], u[0], 0.0]])
-    return np.eye(3) + math.sin(t) * k + (1.0 - math.cos(t)) * (k @ k)
+    return _EYE + math.sin(t) * k + (1.0 - math.cos(t)) * (k @ k)
 
 
 def rotation_onto(a: np.ndarray, b: np.ndarray) -> np.ndarray:

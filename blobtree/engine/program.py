@@ -326,7 +326,7 @@ class _Emitter:
         """Emit ``node`` met for the first time in this frame (see :meth:`emit`)."""
         kind = node.KIND
         if kind == "affine":
-            return self.emit(node.child, geo.compose(M, node.matrix), look)
+            return self.emit(node.child, node.framed(M), look)
         if kind == "primitive":
             return self.primitive(node, M, look)
         if kind == "paint":
@@ -474,20 +474,22 @@ def _split(boxes: list[geo.Box]) -> tuple[np.ndarray, np.ndarray]:
     hi = np.maximum(hi, lo)
     n = len(boxes)
     grow = 0.01 * float(np.max(hi.max(axis=0) - lo.min(axis=0)))
+    # the three axes at once: [axis, place in that axis' order, coordinate]
+    order = np.argsort(lo + hi, axis=0, kind="stable").T
+    a, b = lo[order], hi[order]
+    head = np.prod(np.maximum.accumulate(b, axis=1)[:, :-1]
+                   - np.minimum.accumulate(a, axis=1)[:, :-1] + grow, 2)
+    tail = np.prod(np.maximum.accumulate(b[:, ::-1], axis=1)[:, :-1]
+                   - np.minimum.accumulate(a[:, ::-1], axis=1)[:, :-1] + grow, 2)[:, ::-1]
+    k = np.arange(1, n)
+    cost = head * k + tail * (n - k)
     best = (np.inf, None)
     for axis in range(3):
-        order = np.argsort(lo[:, axis] + hi[:, axis], kind="stable")
-        a, b = lo[order], hi[order]
-        # volumes of the union of the first k boxes (k = 1 .. n - 1) and of the last n - k
-        head = np.prod(np.maximum.accumulate(b)[:-1] - np.minimum.accumulate(a)[:-1] + grow, 1)
-        tail = np.prod(np.maximum.accumulate(b[::-1])[:-1] - np.minimum.accumulate(a[::-1])[:-1]
-                       + grow, 1)[::-1]
-        k = np.arange(1, n)
-        cost = head * k + tail * (n - k)
-        near = np.flatnonzero(cost <= cost.min() * (1.0 + 1e-9))  # ties: the most even cut
+        c = cost[axis]
+        near = np.flatnonzero(c <= c.min() * (1.0 + 1e-9))  # ties: the most even cut
         i = int(near[np.argmin(np.abs(2 * k[near] - n))])
-        if cost[i] < best[0]:
-            best = (cost[i], (order[:i + 1], order[i + 1:]))
+        if c[i] < best[0]:
+            best = (c[i], (order[axis, :i + 1], order[axis, i + 1:]))
     return best[1]
 
 

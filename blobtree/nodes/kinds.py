@@ -178,8 +178,18 @@ class Affine(Unary):
         f, g, c = self.child._ref(geo.apply(inv, P), look)
         return f, g @ inv[:, :3], c
 
+    def framed(self, L: np.ndarray) -> np.ndarray:
+        """The child's frame seen through L (this node -> frame): ``compose(L, matrix)``, read-
+        only, computed once per frame (boxes and the compiler both ask for it)."""
+        memo = self.__dict__.setdefault("_framed", {})
+        key = L.tobytes()
+        if key not in memo:
+            memo[key] = geo.compose(L, self.matrix)
+            memo[key].setflags(write=False)
+        return memo[key]
+
     def _box(self, L):
-        return self.child.box(geo.compose(L, self.matrix))
+        return self.child.box(self.framed(L))
 
     def _lipschitz(self):
         return self.child.lipschitz() * geo.spectral_norm(self.inverse[:, :3])

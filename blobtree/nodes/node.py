@@ -70,6 +70,7 @@ def register(cls: type[Node]) -> type[Node]:
     cls._defaults = {p.name: p.default for p in cls.PARAMS}
     cls._positional = () if cls.ARITY[1] is None or cls.ARITY[1] > 1 else \
         tuple(p.name for p in cls.PARAMS)
+    cls._keyed = tuple((p.name, f"{p.name}=", p.kind.key) for p in cls.PARAMS)
     if cls.METHOD:
         def method(self: Node, *args: Any, **kwargs: Any) -> Node:
             return cls.chain(self, *args, **kwargs)
@@ -137,6 +138,8 @@ class Node:
     _defaults: ClassVar[dict[str, Any]] = {}
     #: the parameters that may be given by position, in order, set by :func:`register`
     _positional: ClassVar[tuple[str, ...]] = ()
+    #: (name, "name=", the kind's key) of every parameter, set by :func:`register`
+    _keyed: ClassVar[tuple] = ()
     #: name of the chainable method (``node.bend(...)``) a unary type adds to every node
     METHOD: ClassVar[str | None] = None
 
@@ -279,9 +282,8 @@ class Node:
         for node in (self,) if keyed else self.unique():  # children first: no deep recursion
             if "key" not in node.__dict__:  # TYPE|name=value|...|child key|...
                 text = "|".join([node.TYPE,
-                                 *(f"{p.name}={p.kind.key(getattr(node, p.name))}"
-                                   for p in node.PARAMS),
-                                 *(c.__dict__["key"] for c in node.children)])
+                                 *[name + key(getattr(node, p)) for p, name, key in node._keyed],
+                                 *[c.__dict__["key"] for c in node.children]])
                 node.__dict__["key"] = hashlib.sha256(text.encode()).hexdigest()[:32]
         return self.__dict__["key"]
 
