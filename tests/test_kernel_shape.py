@@ -15,8 +15,9 @@ from blobtree.engine import walk as W
 from blobtree.engine.point import POINT_MODE
 from blobtree.runtime.linked import LINKED, Linked
 
-#: The packages whose kernels take a program, a region or a camera travel as bundled values.
-PACKAGES = ("engine", "render", "mesh", "runtime")
+#: The packages whose kernels take a program, a region, a camera travel or a vector as bundled
+#: values.
+PACKAGES = ("engine", "nodes", "texture", "render", "mesh", "runtime")
 MAX_PARAMETERS = 12
 
 

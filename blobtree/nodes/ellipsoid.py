@@ -69,9 +69,9 @@ def ellipsoid_rise(p, o, lox, loy, loz, hix, hiy, hiz, dx, dy, dz, spread):
     """How fast the field can rise along a cone of rays (``kernel_math.quadric_rise`` with
     k_i = 1 / R_i^2)."""
     c, r = o + CENTER, o + RADII
-    return kernel_math.quadric_rise(p, o, p[c], p[c + 1], p[c + 2], 1.0 / p[r] ** 2,
-                                    1.0 / p[r + 1] ** 2, 1.0 / p[r + 2] ** 2, lox, loy, loz,
-                                    hix, hiy, hiz, dx, dy, dz, spread)
+    return kernel_math.quadric_rise(p, o, (p[c], p[c + 1], p[c + 2]),
+                                    (1.0 / p[r] ** 2, 1.0 / p[r + 1] ** 2, 1.0 / p[r + 2] ** 2),
+                                    (lox, loy, loz, hix, hiy, hiz), (dx, dy, dz), spread)
 
 
 @register

@@ -79,10 +79,13 @@ def _direction(vs, j, h, floor):
 
 
 @kernel
-def _chain(vs, j, h, floor, g, ax, ay, az, bx, by, bz, scale, direct):
+def _chain(vs, j, h, floor, g, a, b, scale, direct):
     """The gradient of ``scale`` * c + ``direct`` * f_j through child j's four copies:
-    dc/dD = (b - (a.b) a) / |D| for |D| > floor (else b / floor), a this child's direction and
-    b the other's, and dD/df(x + s e_k) = e_k / s, dD/df(x) = -(1, 1, 1) / s."""
+    dc/dD = (b - (a.b) a) / |D| for |D| > floor (else b / floor), a = (a_x, a_y, a_z) this
+    child's direction and b the other's, and dD/df(x + s e_k) = e_k / s, dD/df(x) = -(1, 1, 1)
+    / s."""
+    ax, ay, az = a
+    bx, by, bz = b
     if g > floor:
         ab = ax * bx + ay * by + az * bz
         qx, qy, qz = (bx - ab * ax) / g, (by - ab * ay) / g, (bz - ab * az) / g
@@ -117,8 +120,8 @@ def gradient_combine(vs, b, k, p, o, mode):
         scale = -2.0 * power * c * (1.0 - c * c) ** (power - 1.0) * m  # dh/dc
         clamp = w * dm  # dh/d(low)
         da, db = (1.0, clamp) if a_wins else (clamp, 1.0)
-        x0, y0, z0 = _chain(vs, b, h, floor, ga, ax, ay, az, bx, by, bz, scale, da)
-        x1, y1, z1 = _chain(vs, b + 4, h, floor, gb, bx, by, bz, ax, ay, az, scale, db)
+        x0, y0, z0 = _chain(vs, b, h, floor, ga, (ax, ay, az), (bx, by, bz), scale, da)
+        x1, y1, z1 = _chain(vs, b + 4, h, floor, gb, (bx, by, bz), (ax, ay, az), scale, db)
         wa, wb = (top, w * m) if a_wins else (w * m, top)
         total = wa + wb
         for col in range(COLOR, COLOR + 3):

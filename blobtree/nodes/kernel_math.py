@@ -73,16 +73,21 @@ def map_box(p, o, lox, loy, loz, hix, hiy, hiz):
 
 
 @kernel
-def quadric_rise(p, o, cx, cy, cz, kx, ky, kz, lox, loy, loz, hix, hiy, hiz, dx, dy, dz,
-                 spread):
-    """How fast the field f(s) of s = sum_i k_i (q_i - c_i)^2 (a point's or an ellipsoid's) can
-    rise in the frame box [lo, hi] along unit directions d' within ``spread`` of the unit vector
-    d; q = M x + t is the local point of frame point x (the map at params[o:o + 12], its norm
+def quadric_rise(p, o, centre, k, box, d, spread):
+    """How fast the field f(s) of s = sum_i k_i (q_i - c_i)^2 (a point's or an ellipsoid's;
+    ``centre`` = (c_x, c_y, c_z), ``k`` = (k_x, k_y, k_z)) can rise in the frame box ``box`` =
+    (lo_x, lo_y, lo_z, hi_x, hi_y, hi_z) along unit directions d' within ``spread`` of the unit
+    vector ``d`` = (d_x, d_y, d_z); q = M x + t is the local point of frame point x (the map at
+    params[o:o + 12], its norm
     at MAP_NORM).  df/dt = f'(s) ds/dt with f' <= 0, so only where s falls: -ds/dt / 2 =
     -sum_i k_i (q_i - c_i) e_i - sum_i k_i (q_i - c_i) (e'_i - e_i), e = M d; the first term is
     linear in x (its largest over the box is exact), the second at most max k |q - c| |M|
     spread.  |f'| is largest at the box's least s (both falloffs' slopes fall with s).  0 where
     the whole box moves away from the centre: rays there only leave the primitive."""
+    cx, cy, cz = centre
+    kx, ky, kz = k
+    lox, loy, loz, hix, hiy, hiz = box
+    dx, dy, dz = d
     ex = p[o] * dx + p[o + 1] * dy + p[o + 2] * dz
     ey = p[o + 4] * dx + p[o + 5] * dy + p[o + 6] * dz
     ez = p[o + 8] * dx + p[o + 9] * dy + p[o + 10] * dz

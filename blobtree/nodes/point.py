@@ -94,8 +94,8 @@ def point_rise(p, o, lox, loy, loz, hix, hiy, hiz, dx, dy, dz, spread):
     / R^2): only as fast as they approach the centre."""
     c = o + CENTER
     k = 1.0 / (p[o + RADIUS] * p[o + RADIUS])
-    return kernel_math.quadric_rise(p, o, p[c], p[c + 1], p[c + 2], k, k, k, lox, loy, loz,
-                                    hix, hiy, hiz, dx, dy, dz, spread)
+    return kernel_math.quadric_rise(p, o, (p[c], p[c + 1], p[c + 2]), (k, k, k),
+                                    (lox, loy, loz, hix, hiy, hiz), (dx, dy, dz), spread)
 
 
 @register
