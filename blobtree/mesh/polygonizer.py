@@ -138,12 +138,14 @@ def polygonize(
 
 def _share_first_compile() -> None:
     """On a first run (the lanes walk missing from the cache), a partner process compiles the
-    contouring's kernels and the lanes walk (the last two steps: the vertices' gradients and
-    colours) while this one compiles the culling's and the sampling's (``runtime.partner``)."""
+    lanes walk, then the contouring's kernels, while this one compiles the culling's, the
+    sampling's and the vertices' (``runtime.partner``).  The lanes walk comes first: the
+    sampling's batches (``batch._eval_runs``) call it by symbol, so this process waits for it
+    when it reaches them (after 3-4 s; with the contouring first, it idled 9 s there)."""
     if not lanes_walk.ensure(compile=False):
-        partner.start({partner.kernel_key(_kernels._fill_part.py_func):
-                       f"{__name__}:_triangles_unit",
-                       lanes_walk.symbol: f"{batch.__name__}:lanes_walk"})
+        partner.start({lanes_walk.symbol: f"{batch.__name__}:lanes_walk",
+                       partner.kernel_key(_kernels._fill_part.py_func):
+                       f"{__name__}:_triangles_unit"})
 
 
 def _triangles_unit() -> None:
