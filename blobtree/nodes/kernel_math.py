@@ -78,12 +78,12 @@ def quadric_rise(p, o, centre, k, box, d, spread):
     ``centre`` = (c_x, c_y, c_z), ``k`` = (k_x, k_y, k_z)) can rise in the frame box ``box`` =
     (lo_x, lo_y, lo_z, hi_x, hi_y, hi_z) along unit directions d' within ``spread`` of the unit
     vector ``d`` = (d_x, d_y, d_z); q = M x + t is the local point of frame point x (the map at
-    params[o:o + 12], its norm
-    at MAP_NORM).  df/dt = f'(s) ds/dt with f' <= 0, so only where s falls: -ds/dt / 2 =
-    -sum_i k_i (q_i - c_i) e_i - sum_i k_i (q_i - c_i) (e'_i - e_i), e = M d; the first term is
-    linear in x (its largest over the box is exact), the second at most max k |q - c| |M|
-    spread.  |f'| is largest at the box's least s (both falloffs' slopes fall with s).  0 where
-    the whole box moves away from the centre: rays there only leave the primitive."""
+    params[o:o + 12], its norm at MAP_NORM).  df/dt = f'(s) ds/dt with f' <= 0, so only where s
+    falls: -ds/dt / 2 = -sum_i k_i (q_i - c_i) e_i - sum_i k_i (q_i - c_i) (e'_i - e_i), e = M d;
+    the first term is linear in x (its largest over the box is exact), the second at most
+    max k |q - c| |M| spread.  |f'| is largest at the box's least s (both falloffs' slopes fall
+    with s).  0 where the whole box moves away from the centre: rays there only leave the
+    primitive."""
     cx, cy, cz = centre
     kx, ky, kz = k
     lox, loy, loz, hix, hiy, hiz = box

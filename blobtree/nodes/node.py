@@ -282,7 +282,8 @@ class Node:
         for node in (self,) if keyed else self.unique():  # children first: no deep recursion
             if "key" not in node.__dict__:  # TYPE|name=value|...|child key|...
                 text = "|".join([node.TYPE,
-                                 *[name + key(getattr(node, p)) for p, name, key in node._keyed],
+                                 *[label + key_of(getattr(node, attr))
+                                   for attr, label, key_of in node._keyed],
                                  *[c.__dict__["key"] for c in node.children]])
                 node.__dict__["key"] = hashlib.sha256(text.encode()).hexdigest()[:32]
         return self.__dict__["key"]
