@@ -68,6 +68,7 @@ def register(cls: type[Node]) -> type[Node]:
                         f"{expected.get(cls.KIND, object).__name__}")
     cls.__signature__ = cls._signature()
     cls._defaults = {p.name: p.default for p in cls.PARAMS}
+    cls._required = tuple(p.name for p in cls.PARAMS if p.default is REQUIRED)
     cls._positional = () if cls.ARITY[1] is None or cls.ARITY[1] > 1 else \
         tuple(p.name for p in cls.PARAMS)
     cls._keyed = tuple((p.name, f"{p.name}=", p.kind.key) for p in cls.PARAMS)
@@ -136,6 +137,8 @@ class Node:
     KERNELS: ClassVar[Any] = None
     #: every parameter's default (REQUIRED where it has none), set by :func:`register`
     _defaults: ClassVar[dict[str, Any]] = {}
+    #: the parameters without a default, set by :func:`register`
+    _required: ClassVar[tuple[str, ...]] = ()
     #: the parameters that may be given by position, in order, set by :func:`register`
     _positional: ClassVar[tuple[str, ...]] = ()
     #: (name, "name=", the kind's key) of every parameter, set by :func:`register`
@@ -171,7 +174,11 @@ class Node:
         if cls.TYPE not in REGISTRY or REGISTRY[cls.TYPE] is not cls:
             raise TypeError(f"{cls.__name__} is not a registered node type")
         lo, hi = cls.ARITY
-        nodes = next((i for i, a in enumerate(args) if not isinstance(a, Node)), len(args))
+        nodes = 0  # the children given first, by position
+        for a in args:
+            if not isinstance(a, Node):
+                break
+            nodes += 1
         if hi is not None and nodes > hi:
             raise ValueError(f"{cls.__name__} takes {arity_words(lo, hi)} children, got {nodes}")
         # children by position, then parameters (positional only where there is no list of
@@ -180,9 +187,11 @@ class Node:
         named = cls._positional[:len(given)]
         if (nodes == lo or hi != lo) and len(named) == len(given) \
                 and cls._defaults.keys() >= kwargs.keys() and not kwargs.keys() & named:
-            values = {**cls._defaults, **dict(zip(named, given, strict=True)), **kwargs}
+            values = dict(cls._defaults)
+            values.update(zip(named, given, strict=True))
+            values.update(kwargs)
             children: tuple = args[:nodes]
-            if any(v is REQUIRED for v in values.values()):
+            if any(values[k] is REQUIRED for k in cls._required):
                 self._bind(args, kwargs)  # raises Python's error for the missing argument
         else:
             values = self._bind(args, kwargs)
@@ -195,10 +204,12 @@ class Node:
         if len(children) < lo or (hi is not None and len(children) > hi):
             raise ValueError(f"{cls.__name__} takes {arity_words(lo, hi)} children, got "
                              f"{len(children)}")
-        name = "child" if hi == 1 else "children[{}]"
-        self._set("children", tuple(require_node(name.format(i), c)
-                                    for i, c in enumerate(children)))
-        depth = 1 + max((c.depth for c in self.children), default=0)
+        children = tuple(children)
+        for i, c in enumerate(children):
+            if not isinstance(c, Node):
+                require_node("child" if hi == 1 else f"children[{i}]", c)  # (raises)
+        self._set("children", children)
+        depth = 1 + max([c.depth for c in children], default=0)
         if depth > MAX_DEPTH:
             raise ValueError(f"the tree would be {depth} levels deep, more than {MAX_DEPTH}: "
                              "group long chains (e.g. one blend of many children rather than "
