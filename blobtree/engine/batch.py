@@ -87,7 +87,8 @@ def _any_inside(boxes, i, pts, pp, nb):
     0, decided from the batch's span (:func:`_span`) where the box misses it or holds it whole
     (boxes of the full program far from the batch, mostly; the frames below, whose boxes a
     specialised program has mostly kept for their overlap, are not worth spanning: measured);
-    else point by point."""
+    else over every point, without branches, so that the loop vectorises (stopping at the first
+    point inside, it ran point by point: a seventh of a Murex render's time)."""
     if pp == 0:
         if (pts[0, 0, HIGHEST] < boxes[i, 0] or pts[0, 1, HIGHEST] < boxes[i, 1]
                 or pts[0, 2, HIGHEST] < boxes[i, 2] or pts[0, 0, LOWEST] > boxes[i, 3]
@@ -97,10 +98,15 @@ def _any_inside(boxes, i, pts, pp, nb):
                 or outside(boxes, i, pts[0, 0, HIGHEST], pts[0, 1, HIGHEST],
                            pts[0, 2, HIGHEST])):
             return True
-    for k in range(nb):
-        if not outside(boxes, i, pts[pp, 0, k], pts[pp, 1, k], pts[pp, 2, k]):
-            return True
-    return False
+    if nb > 0 and not outside(boxes, i, pts[pp, 0, 0], pts[pp, 1, 0], pts[pp, 2, 0]):
+        return True
+    lox, loy, loz = boxes[i, 0], boxes[i, 1], boxes[i, 2]
+    hix, hiy, hiz = boxes[i, 3], boxes[i, 4], boxes[i, 5]
+    inside = 0
+    for k in range(1, nb):  # (a NaN point is inside: no comparison with it holds)
+        x, y, z = pts[pp, 0, k], pts[pp, 1, k], pts[pp, 2, k]
+        inside += not ((x < lox) | (y < loy) | (z < loz) | (x > hix) | (y > hiy) | (z > hiz))
+    return inside > 0
 
 
 @kernel
