@@ -142,37 +142,17 @@ def _kernels() -> dict[str, object]:
 _PRIM = "p, o, qx, qy, qz"
 _DEFAULT_LIPSCHITZ = ("s = K.s(p, o, cx, cy, cz)[0]\n"
                       "return distance_bound(p, o, lip, s, hx, hy, hz, r)")
-
-
-def _own(cls: type[Node]) -> str:
-    """``w = (p[o], ..., p[o + n - 1])``: a node's n parameters read into a tuple before a
-    loop over a batch, whose kernels then take (w, 0) for (p, o).  Read from the array inside
-    the loop, they were loaded again for every point (a store to the batch's rows might change
-    them, for all the compiler knows), and a loop over fewer than 24 points ran unvectorised
-    (see docs/engine.md, "Large batches")."""
-    n = cls.LAYOUT.start + cls.LAYOUT.size
-    return "w = (" + ", ".join(f"p[o + {j}]" for j in range(n)) + ")"
-
-
-def _rows(cls: type[Node]) -> str:
-    return f"""a = affine(p, o)
-{_own(cls)}
+_ROWS = """a = affine(p, o)
 for k in range(nb):
     qx, qy, qz = map_with(a, pts[pp, 0, k], pts[pp, 1, k], pts[pp, 2, k])
-    s = K.s_inline(w, 0, qx, qy, qz)[0]
+    s = K.s_inline(p, o, qx, qy, qz)[0]
     vs[sp, k] = fo(fid, min(s, 1.0)) if s < 1.0 else 0.0
 return"""
-
-
-def _warp_rows(cls: type[Node]) -> str:
-    return f"""{_own(cls)}
-for m in range(nb):
-    X, Y, Z = to_canonical(w, 0, pts[pp, 0, m], pts[pp, 1, m], pts[pp, 2, m])
-    q = K.map(w, 0, X, Y, Z)
-    pts[pp, 0, m], pts[pp, 1, m], pts[pp, 2, m] = from_canonical(w, 0, q[0], q[1], q[2])
+_WARP_ROWS = """for m in range(nb):
+    X, Y, Z = to_canonical(p, o, pts[pp, 0, m], pts[pp, 1, m], pts[pp, 2, m])
+    q = K.map(p, o, X, Y, Z)
+    pts[pp, 0, m], pts[pp, 1, m], pts[pp, 2, m] = from_canonical(p, o, q[0], q[1], q[2])
 return"""
-
-
 _ROWS_FROM_COMBINE = """for m in range(nb):
     for j in range(k):
         tmp[j, 0] = vs[b + j, m]
@@ -194,7 +174,7 @@ SOURCE = "".join([
                 lambda c: ("return K.rise(p, o, box[0], box[1], box[2], box[3], box[4], "
                            "box[5], cone[0], cone[1], cone[2], cone[3])" if c.KERNELS.rise
                            else "return -1.0"), "return NAN"),
-    _dispatcher("prim_rows", "fid, p, o, pts, pp, vs, sp, nb", "primitive", _rows, "return"),
+    _dispatcher("prim_rows", "fid, p, o, pts, pp, vs, sp, nb", "primitive", _ROWS, "return"),
     _dispatcher("combine", "vs, b, k, p, o, mode", "operator",
                 "K.combine(vs, b, k, p, o, mode)\nreturn", "return"),
     _dispatcher("op_bound", "vs, b, k, p, o, reach", "operator",
@@ -205,7 +185,7 @@ SOURCE = "".join([
                            else _ROWS_FROM_COMBINE), "return"),
     _dispatcher("warp_map", "p, o, X, Y, Z", "warp", "return K.map(p, o, X, Y, Z)",
                 "return NAN, NAN, NAN, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0"),
-    _dispatcher("warp_rows", "p, o, pts, pp, nb", "warp", _warp_rows, "return"),
+    _dispatcher("warp_rows", "p, o, pts, pp, nb", "warp", _WARP_ROWS, "return"),
     _dispatcher("paint", "p, o, px, py, pz, gx, gy, gz", "paint",
                 "return K.paint(p, o, px, py, pz, gx, gy, gz)", "return NAN, NAN, NAN"),
 ])
