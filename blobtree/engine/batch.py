@@ -205,6 +205,8 @@ def _r_finish(prog, at, cur, st):
     return 0
 
 
+#: A batch's rows (pts, vs, tmp), as numba types.
+ROWS = types.Tuple((types.float64[:, :, ::1], types.float64[:, ::1], types.float64[:, ::1]))
 #: The rows mode: a batch's fields, each instruction once for all its points.
 ROWS_MODE = Mode("rows", _r_start, _r_primitive, _r_operator, _r_misses, _r_zero, _r_enter,
                  _r_warp, _r_leave, _r_paint, _r_finish)
@@ -212,8 +214,7 @@ ROWS_MODE = Mode("rows", _r_start, _r_primitive, _r_operator, _r_misses, _r_zero
 #: x, y, z); the field is left in vs[0, :nb].  pts (:func:`point_rows`) is the point stack of
 #: warps, vs (:func:`value_rows`) the value stack, tmp (depth, RESULT_COLUMNS) scratch for
 #: operators without a batch kernel.
-rows_walk = linked(types.int64(PROGRAM, types.int64, types.Tuple((
-    types.float64[:, :, ::1], types.float64[:, ::1], types.float64[:, ::1]))))(walk(ROWS_MODE))
+rows_walk = linked(types.int64(PROGRAM, types.int64, ROWS))(walk(ROWS_MODE))
 #: :data:`rows_walk` as kernels call it.
 eval_rows = rows_walk.call
 

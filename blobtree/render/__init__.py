@@ -27,7 +27,9 @@ from ..nodes import Point
 from ..runtime import partner
 from ..runtime.threads import parallel_for
 from ..runtime.threads import threads as parallel_threads
+from . import shade as shade_module
 from . import tiles as tiles_module
+from . import trace as trace_module
 from .camera import Camera, seen_camera
 from .checkpoint import Checkpoint, job_key
 from .image import save_image
@@ -88,6 +90,8 @@ def warm_kernels() -> threading.Thread:
         with contextlib.suppress(Exception):
             if not lipschitz_walk.ensure(compile=False):
                 partner.start({lipschitz_walk.symbol: f"{bounds.__name__}:lipschitz_walk",
+                               **{getattr(m, name).symbol: f"{m.__name__}:{name}"
+                                  for m, name in _TRACER_LINKED},
                                TRACER: f"{__name__}:tracer_unit"})
                 with global_compiler_lock:  # (a render starting meanwhile waits for them)
                     point_walk.ensure()
@@ -119,6 +123,10 @@ def _pixel() -> tuple:
             RenderSettings(width=1, height=1), 0, 0, 1, 1)
 
 
+#: The tracer's kernels compiled on their own (``runtime.linked``), as modules and names: a
+#: partner process compiles them before the tracer's kernel (:data:`TRACER`).
+_TRACER_LINKED = ((trace_module, "packet_trace"), (shade_module, "packet_shade"),
+                  (tiles_module, "cone_packet"))
 #: The tracer's kernel, as the partner process's unit is named (``runtime.partner``).
 TRACER = partner.kernel_key(tiles_module._render_blocks.py_func)
 

@@ -14,7 +14,8 @@ from ..engine.specialize import specialize
 from ..nodes import kernel_math
 from ..nodes.layout import COLOR, FIELD, GRAD, GRADIENT, SHADE
 from ..nodes.node import ISO
-from ..runtime.jit import kernel
+from ..runtime.jit import kernel, linked
+from .bundles import SHADE_PACKET
 from .camera import Camera, as_color, as_vec3
 from .trace import LOW, PEAK, RISE, clip_box, trace_packet
 
@@ -344,8 +345,7 @@ def _hits_program(prog, n, packet):
     return out[0][:m], prog[1], out[1][:m], out[2][:m]
 
 
-@kernel
-def shade_packet(prog, local, n, view, packet, st):
+def _shade_packet(prog, local, n, view, packet, st):
     """Linear RGB at the hits of the n camera rays O[k] + t D[k] of a packet, into columns CR, CG,
     CB of its surface table (``packet``: see ``tiles._packet_scratch``; the hits in its ray table;
     ``view``: see ``tiles.trace_rect``). ``local = (program, llo, lhi)``: the program specialised to
@@ -432,3 +432,8 @@ def shade_packet(prog, local, n, view, packet, st):
                                       SO[k, 2] + tp * SD[k, 2]), tp, look[LIGHT_TAN], st)
             _add_light(lights, j, look, surf[k], SD[k, 0], SD[k, 1], SD[k, 2], D[k, 0], D[k, 1],
                        D[k, 2], lit)
+
+
+#: :func:`_shade_packet` compiled once, called by symbol (``runtime.linked``).
+packet_shade = linked(SHADE_PACKET)(_shade_packet)
+shade_packet = packet_shade.call

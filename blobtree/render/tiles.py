@@ -19,7 +19,8 @@ from ..checks import Integer, Number
 from ..engine.batch import BATCH, point_rows, value_rows
 from ..engine.specialize import specialize, specialize_work
 from ..nodes.layout import COLUMNS, POINT_COLUMNS, RESULT_COLUMNS
-from ..runtime.jit import kernel
+from ..runtime.jit import kernel, linked
+from .bundles import SUB_BLOCK
 from .camera import Camera, as_color
 from .shade import (
     AMBIENT,
@@ -286,7 +287,6 @@ def _block_start(prog, view, rect, span, st):
     return t, ax, ay, az, tan_a
 
 
-@kernel
 def _sub_block(prog, local, view, cone, packet, st):
     """Trace and shade the pixels of cone = (sx0, sy0, sx1, sy1, t_start, t_local, seg0) (a
     cone's), every ray starting at depth t_start (finite): their linear RGB summed over the
@@ -350,6 +350,12 @@ def _sub_block(prog, local, view, cone, packet, st):
             for c in range(3):
                 acc[k, c] += surf[k, CR + c]
             acc[k, 3] += 1.0
+
+
+#: :func:`_sub_block` compiled once, called by symbol (``runtime.linked``): the tracer's kernel
+#: then links only its own blocks' code, not every packet's tracing and shading again.
+cone_packet = linked(SUB_BLOCK)(_sub_block)
+sub_block = cone_packet.call
 
 
 @kernel
@@ -425,7 +431,7 @@ def _render_blocks(prog, view, tile, out, buffers, st):
                                           (ts / np.sqrt(1.0 + tan_a * tan_a), t_local),
                                           (cone_buffers, work), (rlo, rhi))
                 if ts < np.inf:
-                    _sub_block(prog, (local, rlo, rhi), view,
+                    sub_block(prog, (local, rlo, rhi), view,
                                (sx0, sy0, sx1, sy1, ts, t_local, seg0), packet, st)
                 acc = packet[0]
                 for py in range(max(sy0, y0), min(sy1, y1)):

@@ -33,7 +33,8 @@ from ..engine.bounds import bound_box_at, bounds_use_values, lipschitz_box, lips
 from ..engine.point import eval_point, scratch
 from ..nodes.layout import VALUE
 from ..nodes.node import ISO
-from ..runtime.jit import kernel
+from ..runtime.jit import kernel, linked
+from .bundles import TRACE_PACKET
 
 #: Growth factor of a cone's candidate segment over its last step (the paper's c).
 GROWTH = 1.5
@@ -280,8 +281,7 @@ def _cone(D, act, m):
     return ax, ay, az, np.sqrt(spread)
 
 
-@kernel
-def trace_packet(prog, rays, n, span, steps, delta0, out, refine, scratch, st):
+def _trace_packet(prog, rays, n, span, steps, delta0, out, refine, scratch, st):
     """Segment tracing of the rays O[k] + t D[k], k < n (unit directions, rays = (O, D)), together,
     each over [t[k], t_end[k]] (span = (t, t_end); none where t[k] > t_end[k]), the smallest step
     eps[k] + eps_rel t (steps = (eps, eps_rel)): out[k] is its first hit, or -1 with t[k] where it
@@ -396,6 +396,12 @@ def trace_packet(prog, rays, n, span, steps, delta0, out, refine, scratch, st):
                 delta = max(delta, SEGMENT_GROWTH * (t[act[j]] - pk[TS, act[j]]))
     if refine:
         _refine_packet(prog, rays, hits, h, t, out, pk, rows, st)
+
+
+#: :func:`_trace_packet` compiled once, called by symbol (``runtime.linked``): four kernels
+#: trace packets, and each would otherwise compile the tracer again.
+packet_trace = linked(TRACE_PACKET)(_trace_packet)
+trace_packet = packet_trace.call
 
 
 @kernel
