@@ -432,7 +432,7 @@ def _render_blocks(prog, view, tile, out, buffers, st):
                                           (cone_buffers, work), (rlo, rhi))
                 if ts < np.inf:
                     sub_block(prog, (local, rlo, rhi), view,
-                               (sx0, sy0, sx1, sy1, ts, t_local, seg0), packet, st)
+                              (sx0, sy0, sx1, sy1, ts, t_local, seg0), packet, st)
                 acc = packet[0]
                 for py in range(max(sy0, y0), min(sy1, y1)):
                     for px in range(max(sx0, x0), min(sx1, x1)):
