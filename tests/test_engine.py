@@ -270,8 +270,8 @@ def _specialised(prog, lo, hi):
 
     n = len(prog)
     oc, ob, ol = np.empty((n, 4), dtype=np.int64), np.empty((n, 6)), np.empty(n)
-    m = S.specialize(prog.arrays, np.asarray(lo, float), np.asarray(hi, float), (oc, ob, ol),
-                     S.specialize_work(prog.code))
+    m = S.region_specialize(prog.arrays, np.asarray(lo, float), np.asarray(hi, float),
+                            (oc, ob, ol), S.specialize_work(prog.code))
     return oc[:m], ob[:m]
 
 

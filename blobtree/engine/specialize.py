@@ -23,9 +23,10 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
+from numba import types
 
 from ..nodes.layout import ARG, OFFSET, OP, SKIP
-from ..runtime.jit import kernel
+from ..runtime.jit import kernel, linked
 from ..runtime.threads import parallel_for
 from .bounds import carry, half_diagonal, misses, support_misses
 from .dispatch import (
@@ -41,6 +42,7 @@ from .dispatch import (
     ZERO_REST,
     kind_of,
 )
+from .point import PROGRAM
 
 
 @kernel
@@ -122,8 +124,7 @@ def specialize_work(code):
     return np.empty((7, code.shape[0] + 1), dtype=np.int64)
 
 
-@kernel
-def specialize(prog, lo, hi, out, work):
+def _specialize(prog, lo, hi, out, work):
     """Write the program ``prog`` specialised to the box [lo, hi] into out = (oc, ob, ol) (its
     code, boxes and lips); return its length.
 
@@ -222,6 +223,17 @@ def specialize(prog, lo, hi, out, work):
             f_first[top] = 0
     return n
 
+
+_F1 = types.float64[::1]
+#: :func:`_specialize` compiled once, called by symbol (``runtime.linked``): the tracer's
+#: kernels (the block cones, the hits, the shadow rays' stretches) and the grids' parts call it;
+#: linked into each, it was optimised and emitted again in each (3,400 LLVM instructions).
+#: ``specialize(prog, lo, hi, (oc, ob, ol), work)``.
+region_specialize = linked(types.int64(PROGRAM, _F1, _F1,
+                                       types.Tuple((types.int64[:, ::1], types.float64[:, ::1],
+                                                    _F1)),
+                                       types.int64[:, ::1]))(_specialize)
+specialize = region_specialize.call
 
 @dataclass
 class Regions:

@@ -19,6 +19,7 @@ from numba.core.compiler_lock import global_compiler_lock
 
 from ..checks import Choice
 from ..engine import bounds
+from ..engine import specialize as specialize_module
 from ..engine.batch import rows_walk
 from ..engine.bounds import bounded_walk, lipschitz_walk
 from ..engine.point import point_walk
@@ -125,8 +126,8 @@ def _pixel() -> tuple:
 
 #: The tracer's kernels compiled on their own (``runtime.linked``), as modules and names: a
 #: partner process compiles them before the tracer's kernel (:data:`TRACER`).
-_TRACER_LINKED = ((trace_module, "packet_trace"), (shade_module, "packet_shade"),
-                  (tiles_module, "cone_packet"))
+_TRACER_LINKED = ((specialize_module, "region_specialize"), (trace_module, "packet_trace"),
+                  (shade_module, "packet_shade"), (tiles_module, "cone_packet"))
 #: The tracer's kernel, as the partner process's unit is named (``runtime.partner``).
 TRACER = partner.kernel_key(tiles_module._render_blocks.py_func)
 
