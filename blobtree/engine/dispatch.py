@@ -111,9 +111,10 @@ def _dispatcher(name: str, args: str, kind: str, case: str, miss: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-#: Kernels compiled into their dispatcher (the rest are called): the bounds the ray tracer asks
-#: for at every step, and the operators, whose work is small next to a call.
-INLINE_KERNELS = ("along", "lipschitz", "rise", "combine", "rows", "bound", "map")
+#: Kernels compiled into their dispatcher (the rest are called): a primitive's field (the batch
+#: loops drop the gradient they do not use; one copy serves them and the point walk), the bounds
+#: the ray tracer asks for at every step, and the operators, whose work is small next to a call.
+INLINE_KERNELS = ("s", "along", "lipschitz", "rise", "combine", "rows", "bound", "map")
 #: Dispatchers compiled into their one caller (``warp_map``'s, ``point.apply_warp``, is itself
 #: compiled into its callers).
 INLINE_DISPATCHERS = ("prim_s", "prim_along", "prim_lipschitz", "prim_rise", "combine",
@@ -134,8 +135,6 @@ def _kernels() -> dict[str, object]:
             if fn is not None:
                 out[f"k{OPCODE[cls]}_{field}"] = (_inlined(fn.py_func)
                                                   if field in INLINE_KERNELS else fn)
-        if cls.KIND == "primitive":  # batch loops inline s: the gradient they drop is not computed
-            out[f"k{OPCODE[cls]}_s_inline"] = _inlined(cls.KERNELS.s.py_func)
     return out
 
 
@@ -145,7 +144,7 @@ _DEFAULT_LIPSCHITZ = ("s = K.s(p, o, cx, cy, cz)[0]\n"
 _ROWS = """a = affine(p, o)
 for k in range(nb):
     qx, qy, qz = map_with(a, pts[pp, 0, k], pts[pp, 1, k], pts[pp, 2, k])
-    s = K.s_inline(p, o, qx, qy, qz)[0]
+    s = K.s(p, o, qx, qy, qz)[0]
     vs[sp, k] = fo(fid, min(s, 1.0)) if s < 1.0 else 0.0
 return"""
 _WARP_ROWS = """for m in range(nb):
