@@ -22,7 +22,7 @@ from ..engine import bounds
 from ..engine import specialize as specialize_module
 from ..engine.batch import rows_walk
 from ..engine.bounds import bounded_walk, lipschitz_walk
-from ..engine.point import point_walk
+from ..engine.point import eval_range, point_walk
 from ..engine.program import program_of
 from ..nodes import Point
 from ..runtime import partner
@@ -84,16 +84,27 @@ def warm_kernels() -> threading.Thread:
     own.
 
     On a first run (the Lipschitz pass missing from the cache) a partner process compiles the
-    Lipschitz pass and the tracer (:func:`tracer_unit`) while this one compiles the point,
-    bounded and rows walks the tracer calls (``runtime.partner``): two halves on two cores."""
+    framing's range entry (:func:`range_unit`), the Lipschitz pass and the tracer
+    (:func:`tracer_unit`) while this one compiles the point, bounded and rows walks they call
+    (``runtime.partner``): two halves on two cores.  Whether it is a first run is decided
+    before this returns (loading the Lipschitz pass, or starting the partner)."""
+
+    # The partner starts here, not on the thread: the caller may reach a kernel the partner
+    # compiles within a few tenths of a second (framing a shell runs the range entry), and
+    # waits for the partner's copy only once the partner is started.
+    first_run = False
+    with contextlib.suppress(Exception):
+        if not lipschitz_walk.ensure(compile=False):
+            first_run = True
+            partner.start({RANGE: f"{__name__}:range_unit",
+                           lipschitz_walk.symbol: f"{bounds.__name__}:lipschitz_walk",
+                           **{getattr(m, name).symbol: f"{m.__name__}:{name}"
+                              for m, name in _TRACER_LINKED},
+                           TRACER: f"{__name__}:tracer_unit"})
 
     def run() -> None:
         with contextlib.suppress(Exception):
-            if not lipschitz_walk.ensure(compile=False):
-                partner.start({lipschitz_walk.symbol: f"{bounds.__name__}:lipschitz_walk",
-                               **{getattr(m, name).symbol: f"{m.__name__}:{name}"
-                                  for m, name in _TRACER_LINKED},
-                               TRACER: f"{__name__}:tracer_unit"})
+            if first_run:
                 with global_compiler_lock:  # (a render starting meanwhile waits for them)
                     point_walk.ensure()
                     bounded_walk.ensure()
@@ -135,6 +146,21 @@ TRACER = partner.kernel_key(tiles_module._render_blocks.py_func)
 def tracer_unit() -> None:
     """Compile the tracer's kernels without running them (a partner process's unit)."""
     compile_tracer(*_pixel()[:4])
+
+
+#: The point walk's range entry, which framing a shell runs (``camera.surface_points``), as the
+#: partner process's unit is named: the partner compiles it first, while this process compiles
+#: the walks it calls.
+RANGE = partner.kernel_key(eval_range.py_func)
+
+
+def range_unit() -> None:
+    """Compile :func:`~blobtree.engine.point.eval_range` for the arguments ``Program.field``
+    passes, without running it (a partner process's unit)."""
+    prog = Point().program()
+    f, g = np.empty(0), np.empty((0, 3))
+    args = (0, 0, prog.arrays, g, 0, prog.depth, (f, g, g))
+    eval_range.compile(tuple(eval_range.typeof_pyval(a) for a in args))
 
 
 def tiles(width: int, height: int, size: int = TILE_SIDES[-1]
