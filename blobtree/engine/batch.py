@@ -101,12 +101,9 @@ def _any_inside(boxes, i, pts, pp, nb):
             return True
     if nb > 0 and not outside(boxes, i, pts[pp, 0, 0], pts[pp, 1, 0], pts[pp, 2, 0]):
         return True
-    lox, loy, loz = boxes[i, 0], boxes[i, 1], boxes[i, 2]
-    hix, hiy, hiz = boxes[i, 3], boxes[i, 4], boxes[i, 5]
     inside = 0
-    for k in range(1, nb):  # (a NaN point is inside: no comparison with it holds)
-        x, y, z = pts[pp, 0, k], pts[pp, 1, k], pts[pp, 2, k]
-        inside += not ((x < lox) | (y < loy) | (z < loz) | (x > hix) | (y > hiy) | (z > hiz))
+    for k in range(1, nb):
+        inside += not outside(boxes, i, pts[pp, 0, k], pts[pp, 1, k], pts[pp, 2, k])
     return inside > 0
 
 

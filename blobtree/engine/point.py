@@ -61,11 +61,13 @@ def scratch(depth):
     return np.empty((depth, COLUMNS)), np.empty((depth, POINT_COLUMNS))
 
 
-@kernel
+@kernel(forceinline=True)
 def outside(boxes, i, x, y, z):
-    """Is (x, y, z) outside instruction i's box?"""
-    return (x < boxes[i, 0] or y < boxes[i, 1] or z < boxes[i, 2]
-            or x > boxes[i, 3] or y > boxes[i, 4] or z > boxes[i, 5])
+    """Is (x, y, z) outside instruction i's box?  A point with a NaN coordinate is inside (no
+    comparison with it holds).  Without branches, so that a loop over points testing each
+    vectorises (``batch._any_inside``)."""
+    return ((x < boxes[i, 0]) | (y < boxes[i, 1]) | (z < boxes[i, 2])
+            | (x > boxes[i, 3]) | (y > boxes[i, 4]) | (z > boxes[i, 5]))
 
 
 @kernel(inline="always")
