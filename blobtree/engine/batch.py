@@ -41,6 +41,7 @@ from .point import (
     DEFAULT_GREY,
     PROGRAM,
     apply_warp,
+    misses,
     nan_point,
     outside,
     point_paint,
@@ -91,9 +92,8 @@ def _any_inside(boxes, i, pts, pp, nb):
     vectorises (a loop stopping at the first point inside ran point by point: a seventh of the
     rows walk's time in a Murex render; most boxes hold the first point)."""
     if pp == 0:
-        if (pts[0, 0, HIGHEST] < boxes[i, 0] or pts[0, 1, HIGHEST] < boxes[i, 1]
-                or pts[0, 2, HIGHEST] < boxes[i, 2] or pts[0, 0, LOWEST] > boxes[i, 3]
-                or pts[0, 1, LOWEST] > boxes[i, 4] or pts[0, 2, LOWEST] > boxes[i, 5]):
+        if misses(boxes, i, (pts[0, 0, LOWEST], pts[0, 1, LOWEST], pts[0, 2, LOWEST],
+                             pts[0, 0, HIGHEST], pts[0, 1, HIGHEST], pts[0, 2, HIGHEST])):
             return False
         if not (outside(boxes, i, pts[0, 0, LOWEST], pts[0, 1, LOWEST], pts[0, 2, LOWEST])
                 or outside(boxes, i, pts[0, 0, HIGHEST], pts[0, 1, HIGHEST],

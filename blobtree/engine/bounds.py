@@ -59,7 +59,16 @@ from .dispatch import (
     prim_rise,
     prim_s,
 )
-from .point import PROGRAM, STACKS, apply_warp, eval_point, outside, push_primitive, scratch
+from .point import (
+    PROGRAM,
+    STACKS,
+    apply_warp,
+    eval_point,
+    misses,
+    outside,
+    push_primitive,
+    scratch,
+)
 from .walk import Mode, hook, walk
 
 #: Places in a bound pass's ``at`` (see the module doc), and its length.
@@ -78,13 +87,6 @@ if set(range(len(LIPSCHITZ_RULES))) != RULES:
 def half_diagonal(lox, loy, loz, hix, hiy, hiz):
     """The radius of the ball around the box [lo, hi] (about its centre)."""
     return 0.5 * math.sqrt((hix - lox) ** 2 + (hiy - loy) ** 2 + (hiz - loz) ** 2)
-
-
-@kernel
-def misses(boxes, i, region):
-    """Does the box of ``region`` (lox, loy, loz, hix, hiy, hiz, ...) miss instruction i's?"""
-    return (region[3] < boxes[i, 0] or region[4] < boxes[i, 1] or region[5] < boxes[i, 2]
-            or region[0] > boxes[i, 3] or region[1] > boxes[i, 4] or region[2] > boxes[i, 5])
 
 
 @kernel
@@ -205,7 +207,7 @@ def _l_start(prog, at, st):
 def _l_primitive(prog, at, i, cur, pp, st, sp):
     vs = st[0]
     vs[sp, FIELD] = vs[sp, RISES] = vs[sp, FALLS] = 0.0
-    if not misses(prog[2], i, cur):
+    if not misses(prog[2], i, cur[:6]):
         vs[sp, FIELD] = _prim_bound(prog, i, at, cur, pp)
         if at[SPREAD] >= 0.0:
             _prim_moves(prog, i, at, cur, pp, vs[sp, FIELD], vs, sp)
@@ -223,7 +225,7 @@ def _l_operator(prog, at, i, cur, st, b, k):
 
 @hook
 def _l_misses(prog, at, i, cur, pp, st):
-    return misses(prog[2], i, cur)
+    return misses(prog[2], i, cur[:6])
 
 
 @hook
@@ -281,7 +283,7 @@ def _b_start(prog, at, st):
 def _b_primitive(prog, at, i, cur, pp, st, sp):
     vs = st[0]
     vs[sp, FIELD] = vs[sp, BOUND] = vs[sp, BELOW] = vs[sp, ABOVE] = 0.0
-    if not misses(prog[2], i, cur):
+    if not misses(prog[2], i, cur[:6]):
         vs[sp, BOUND] = _prim_bound(prog, i, at, cur, pp)
         if not outside(prog[2], i, cur[7], cur[8], cur[9]):
             push_primitive(prog, i, cur[7], cur[8], cur[9], VALUE, vs, sp)

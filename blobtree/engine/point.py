@@ -70,6 +70,14 @@ def outside(boxes, i, x, y, z):
             | (x > boxes[i, 3]) | (y > boxes[i, 4]) | (z > boxes[i, 5]))
 
 
+@kernel(forceinline=True)
+def misses(boxes, i, region):
+    """Does the box ``region`` (lox, loy, loz, hix, hiy, hiz) miss instruction i's?  (Callers
+    pass a region's first six entries, so that it is compiled once.)"""
+    return (region[3] < boxes[i, 0] or region[4] < boxes[i, 1] or region[5] < boxes[i, 2]
+            or region[0] > boxes[i, 3] or region[1] > boxes[i, 4] or region[2] > boxes[i, 5])
+
+
 @kernel(inline="always")
 def nan_point(x, y, z):
     """Has (x, y, z) a NaN coordinate?  Such a point has no field: it evaluates to NaN (field

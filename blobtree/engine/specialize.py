@@ -28,7 +28,7 @@ from numba import types
 from ..nodes.layout import ARG, OFFSET, OP, SKIP
 from ..runtime.jit import kernel, linked
 from ..runtime.threads import parallel_for
-from .bounds import carry, half_diagonal, misses, support_misses
+from .bounds import carry, half_diagonal, support_misses
 from .dispatch import (
     K_OPERATOR,
     K_PRIMITIVE,
@@ -42,7 +42,7 @@ from .dispatch import (
     ZERO_REST,
     kind_of,
 )
-from .point import PROGRAM
+from .point import PROGRAM, misses
 
 
 @kernel
@@ -70,12 +70,12 @@ def _frame_misses(prog, i, lo, hi):
                                    half_diagonal(lo[0], lo[1], lo[2], hi[0], hi[1], hi[2])),
                    boxes)
     w = i + 1
-    if misses(boxes, w, region):
+    if misses(boxes, w, region[:6]):
         return True
     if kind_of(code[w, OP]) != K_WARP:
         return False
     region = carry(False, prog, w, region, boxes)
-    if misses(boxes, w + 1, region):
+    if misses(boxes, w + 1, region[:6]):
         return True
     return kind_of(code[w + 1, OP]) == K_PRIMITIVE and support_misses(prog, w + 1, region)
 
