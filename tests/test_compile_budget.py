@@ -24,7 +24,7 @@ ROOT = Path(__file__).resolve().parents[1]
 #: Commands run in order in one process with an empty cache, and the most new signatures each
 #: may compile.
 BUDGETS = [
-    (["render", "murex", "--size", "32x32"], 160),  # the walks, the tracer, every node type
+    (["render", "murex", "--size", "32x32"], 150),  # the walks, the tracer, every node type
     (["render", "whorl126", "--size", "32x32"], 5),  # (the same kernels: nothing new)
     (["mesh", "whorl126", "--resolution", "24"], 100),  # the lanes walk, the lattice mesher
 ]
