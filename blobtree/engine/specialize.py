@@ -235,6 +235,7 @@ region_specialize = linked(types.int64(PROGRAM, _F1, _F1,
                                        types.int64[:, ::1]))(_specialize)
 specialize = region_specialize.call
 
+
 @dataclass
 class Regions:
     """The program specialised to each of a list of boxes: region r runs rows
