@@ -224,14 +224,13 @@ def _specialize(prog, lo, hi, out, work):
     return n
 
 
-_F1 = types.float64[::1]
+#: Room for a specialised program, as numba types: (code, boxes, lips).
+BUFFERS = types.Tuple((types.int64[:, ::1], types.float64[:, ::1], types.float64[::1]))
 #: :func:`_specialize` compiled once, called by symbol (``runtime.linked``): the tracer's
 #: kernels (the block cones, the hits, the shadow rays' stretches) and the grids' parts call it;
 #: linked into each, it was optimised and emitted again in each (3,400 LLVM instructions).
 #: ``specialize(prog, lo, hi, (oc, ob, ol), work)``.
-region_specialize = linked(types.int64(PROGRAM, _F1, _F1,
-                                       types.Tuple((types.int64[:, ::1], types.float64[:, ::1],
-                                                    _F1)),
+region_specialize = linked(types.int64(PROGRAM, types.float64[::1], types.float64[::1], BUFFERS,
                                        types.int64[:, ::1]))(_specialize)
 specialize = region_specialize.call
 

@@ -12,6 +12,7 @@ from numba import types
 
 from ..engine.batch import ROWS
 from ..engine.point import PROGRAM, STACKS
+from ..engine.specialize import BUFFERS
 
 _F1, _F2, _I1, _I2 = (types.float64[::1], types.float64[:, ::1], types.int64[::1],
                       types.int64[:, ::1])
@@ -27,7 +28,7 @@ LOCAL = types.Tuple((PROGRAM, _F1, _F1))
 #: ``tiles._packet_scratch``: sums, ray table, rays, shadow rays, surface table, the tracer's
 #: scratch, room for a specialised program, the occlusion samples.
 PACKET = types.Tuple((_F2, _F2, _F2, _F2, _F2, _F2, _F2, _F2, _I2, ROWS,
-                      types.Tuple((types.Tuple((_I2, _F2, _F1)), _I2, _F1, _F1)),
+                      types.Tuple((BUFFERS, _I2, _F1, _F1)),
                       types.Tuple((_I1, _F2))))
 #: A cone of a packet's pixels: (sx0, sy0, sx1, sy1, t_start, t_local, seg0).
 CONE = types.Tuple((_I, _I, _I, _I, _F, _F, _F))
