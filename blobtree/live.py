@@ -10,6 +10,7 @@ an editor saves (docs/live.md).
 from __future__ import annotations
 
 import contextlib
+import gc
 import math
 import threading
 import time
@@ -332,8 +333,15 @@ class Explorer:
 
     def _draw_loop(self) -> None:
         """The drawing thread: the latest change's :attr:`passes`, the sharper ones once nothing
-        has changed for ``settle`` seconds; a change stops the picture being drawn."""
+        has changed for ``settle`` seconds; a change stops the picture being drawn.  Going idle,
+        it collects garbage: a full collection walks every tree kept (0.1-0.35 s), and Python
+        starts one once the objects made since the last have grown by a quarter, which the
+        builds of two or three changes do; collected while idle, it falls in no picture."""
         while True:
+            with self._cond:
+                idle = self._wanted == self._drawn and not self._closed
+            if idle:  # (outside the lock: a control moved meanwhile is not held up)
+                gc.collect()
             with self._cond:
                 while self._wanted == self._drawn and not self._closed:
                     self._cond.wait()

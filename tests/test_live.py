@@ -3,8 +3,11 @@ spec file again when it is saved and survives a broken one (docs/live.md)."""
 
 from __future__ import annotations
 
+import gc
 import io
 import os
+import threading
+import time
 from dataclasses import replace
 from pathlib import Path
 
@@ -67,6 +70,26 @@ def test_a_picture_stops_when_the_controls_change(explorer):
     with pytest.raises(_Stale):  # a source for an older change stops at its first tile
         explorer.live.picture(48, 48, source=explorer._tiles(explorer._wanted - 1))
     explorer.live.picture(48, 48, source=explorer._tiles(explorer._wanted))
+
+
+def test_an_idle_explorer_collects_garbage(explorer):
+    """Full collections fall while nothing is drawn, not in the next change's picture."""
+    full: list[str] = []
+
+    def seen(phase: str, info: dict) -> None:
+        if phase == "start" and info["generation"] == 2:
+            full.append(threading.current_thread().name)
+
+    gc.callbacks.append(seen)
+    try:
+        explorer.controls["canal.tilt"].value = SMALL.canal_tilt + 5.0
+        assert explorer.wait()
+        deadline = time.monotonic() + 10.0
+        while "blobtree-explore" not in full and time.monotonic() < deadline:
+            time.sleep(0.01)
+    finally:
+        gc.callbacks.remove(seen)
+    assert "blobtree-explore" in full
 
 
 def test_the_view_turns_without_rebuilding_the_shell(explorer):
