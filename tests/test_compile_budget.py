@@ -119,3 +119,19 @@ def test_a_cache_missing_a_walk_compiles_the_walk(tmp_path):
     for path in gone:
         path.unlink()
     assert render("again.png") == first
+
+
+def test_the_partners_range_entry_is_the_one_framing_runs():
+    """A first run's partner compiles ``eval_range`` for the arguments ``Program.field`` passes
+    (``render.range_unit``): the field of a few points then needs no other signature."""
+    import numpy as np
+
+    from blobtree.engine.point import eval_range
+    from blobtree.nodes import Point
+    from blobtree.render import range_unit
+
+    range_unit()
+    compiled = set(eval_range.signatures)
+    f = Point().translate(0.1, 0.0, 0.0).program().field(np.zeros((3, 3)))
+    assert f.shape == (3,) and np.all(f > 0.5)  # inside the point's ball
+    assert set(eval_range.signatures) == compiled

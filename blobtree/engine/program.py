@@ -96,18 +96,26 @@ class Program:
 
     def _run(self, P: np.ndarray, mode: int):
         P = np.ascontiguousarray(P, dtype=np.float64)
-        n = len(P)
-        f = np.empty(n)
-        g = np.empty((n, 3)) if mode >= GRADIENT else np.empty((0, 3))
-        c = np.empty((n, 3)) if mode >= GRADIENT else np.empty((0, 3))  # (colours cost nothing)
-        grid = self.grid if n >= GRID_MIN_POINTS else None
+        args = self.range_args(P, mode)
+        f, g, c = args[-1]
+        grid = self.grid if len(P) >= GRID_MIN_POINTS else None
         if grid is not None and mode == VALUE:
             B.eval_sorted(grid, self.params, self.depth, P, f)
         elif grid is not None:
             B.eval_sorted(grid, self.params, self.depth, P, f, g, c)
         else:
-            parallel_for(point.eval_range, n, self.arrays, P, mode, self.depth, (f, g, c))
+            parallel_for(point.eval_range, len(P), *args)
         return f, g, c
+
+    def range_args(self, P: np.ndarray, mode: int) -> tuple:
+        """The arguments of ``point.eval_range`` after (start, stop) for the (N, 3) float64
+        points P in ``mode``, its outputs (f, g, c) last (a partner process compiles it for
+        these types without running it)."""
+        n = len(P)
+        f = np.empty(n)
+        g = np.empty((n, 3)) if mode >= GRADIENT else np.empty((0, 3))
+        c = np.empty((n, 3)) if mode >= GRADIENT else np.empty((0, 3))  # (colours cost nothing)
+        return self.arrays, P, mode, self.depth, (f, g, c)
 
     @cached_property
     def grid(self) -> Grid | None:

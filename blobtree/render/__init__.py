@@ -25,6 +25,7 @@ from ..engine.bounds import bounded_walk, lipschitz_walk
 from ..engine.point import eval_range, point_walk
 from ..engine.program import program_of
 from ..nodes import Point
+from ..nodes.layout import VALUE
 from ..runtime import partner
 from ..runtime.threads import parallel_for
 from ..runtime.threads import threads as parallel_threads
@@ -157,9 +158,7 @@ RANGE = partner.kernel_key(eval_range.py_func)
 def range_unit() -> None:
     """Compile :func:`~blobtree.engine.point.eval_range` for the arguments ``Program.field``
     passes, without running it (a partner process's unit)."""
-    prog = Point().program()
-    f, g = np.empty(0), np.empty((0, 3))
-    args = (0, 0, prog.arrays, g, 0, prog.depth, (f, g, g))
+    args = (0, 0, *Point().program().range_args(np.empty((0, 3)), VALUE))
     eval_range.compile(tuple(eval_range.typeof_pyval(a) for a in args))
 
 
