@@ -86,6 +86,10 @@ def test_the_murex_spec_holds_the_paper_numbers():
      "varices.down_canal must be a finite number >= 0 and <= 1, got 3"),
     ("version = 1\nextends = 'murex'\n[varices]\ntori = []\ndown_canal = 0.5\n",
      "varices.down_canal must be 0 when varices.tori lists none"),
+    ("version = 1\nextends = 'murex'\n[canal_spines]\nbend_degrees = [20, 5]\n",
+     "canal_spines.bend_degrees must be (low, high) with low <= high, got (20.0, 5.0)"),
+    ("version = 1\nextends = 'murex'\n[canal_spines]\nbends = [3, 1]\n",
+     "canal_spines.bends must be (low, high) with low <= high, got (3, 1)"),
     ("version = 1\n[canal\n", "not valid TOML"),
 ])
 def test_bad_specs_are_refused_naming_the_key(tmp_path, text, words):

@@ -256,11 +256,14 @@ class ShellSpec:
         if self.varices_down_canal > 0 and not self.tori:
             raise ValueError(f"varices.down_canal must be 0 when varices.tori lists none (its "
                              f"ridge extends the tori), got {self.varices_down_canal}")
-        for key in ("previous_whorl", "inside_instances"):
-            a, b = getattr(self, key)
-            if a > b:
-                raise ValueError(f"opening.{key} must be (first, last) with first <= last, "
-                                 f"got {(a, b)}")
+        for key, a, b in (("previous_whorl", "first", "last"),
+                          ("inside_instances", "first", "last"),
+                          ("canal_spine_bends", "low", "high"),
+                          ("canal_spine_bend_deg", "low", "high")):
+            lo, hi = getattr(self, key)
+            if lo > hi:
+                raise ValueError(f"{dotted(key)} must be ({a}, {b}) with {a} <= {b}, got "
+                                 f"{(lo, hi)}")
 
     # ----- derived numbers (Section 3.1) ----------------------------------------------------
     @property
