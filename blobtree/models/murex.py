@@ -44,6 +44,7 @@ from ..texture.mapping import HelicoSurface
 from ..texture.shell import SHELL_TEXTURES, VARIX_PALE, shell_textures
 from .age import Growth, grown, varix_position
 from .growth import grown_varices
+from .parts import part
 from .spec import SHELLS, ShellSpec, load_spec
 
 # ---------------------------------------------------------------------------------------------
@@ -750,37 +751,65 @@ def outer_shell(seed: int = 0, spec: ShellSpec = DEFAULT, textured: bool = True,
     varix spines, bumps and canal spines, field-interpolated; or a grown pigment pattern on the
     body; otherwise plain colours.  The geometry is the same either way.  ``age``: as it was at
     that fraction of its life (:mod:`blobtree.models.age`; the same draws from ``seed``)."""
-    bump_seq, spine_seq = np.random.SeedSequence(_check_int("seed", seed, 0, 2**63 - 1)).spawn(2)
-    bump_rng, spine_rng = np.random.default_rng(bump_seq), np.random.default_rng(spine_seq)
-    body_c, varix_c, bump_c, _ = spec.colours
-    look = spec.texture if textured else "plain"
-    tex = _paper_textures(seed) if look == "paper" else None
+    _check_int("seed", seed, 0, 2**63 - 1)
+    per_section, lumps = part("bumps", _bumps, spec, seed, textured, age)
+    body = part("body", _body, spec, seed, textured, age, per_section)
+    spiny = part("spiny", _spiny, spec, seed, textured, age)
+    main = blend(body, *spiny) if spiny else body
+    return super_blend(main, *lumps, n=spec.bump_blend_n) if lumps else main
 
-    def paint_bump(b: Node) -> Node:
+
+def _streams(seed: int) -> list[np.random.Generator]:
+    """The random streams of the bumps and of the canal spines drawn from ``seed``."""
+    return [np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(2)]
+
+
+def _look(spec: ShellSpec, seed: int, textured: bool) -> tuple[str, Mapping | None]:
+    """The look painted (``look.texture``, or "plain") and Figure 12's textures if it is
+    "paper"."""
+    look = spec.texture if textured else "plain"
+    return look, _paper_textures(seed) if look == "paper" else None
+
+
+def _bumps(spec: ShellSpec, seed: int, textured: bool, age: float
+           ) -> tuple[list[list[Node]] | None, list[Node]]:
+    """:func:`outer_shell`'s bumps, painted: (per section, for the gradient join; or None) and
+    (the lumps the super-elliptic blend joins; or none)."""
+    rng = _streams(seed)[0]
+    _, tex = _look(spec, seed, textured)
+    bump_c = spec.colours[2]
+
+    def paint(b: Node) -> Node:
         return b.texture(tex["bump"], wrap=SHELL_TEXTURES["bump"].wrap) if tex else \
             b.color(bump_c)
 
     if spec.bump_join == "gradient":  # per section: none on section 0 (bumps() starts at 1)
-        per_section = [[]] + [[paint_bump(b) for b in bumps(bump_rng, [k], spec, age)]
-                              for k in range(1, spec.sections)]
-        lumps = []
-    else:
-        per_section, lumps = None, [paint_bump(b) for b in bumps(bump_rng, spec=spec, age=age)]
-    spines = canal_spines(spine_rng, spec, age)
+        return [[]] + [[paint(b) for b in bumps(rng, [k], spec, age)]
+                       for k in range(1, spec.sections)], []
+    return None, [paint(b) for b in bumps(rng, spec=spec, age=age)]
+
+
+def _body(spec: ShellSpec, seed: int, textured: bool, age: float,
+          per_section: list[list[Node]] | None) -> Node:
+    """:func:`outer_shell`'s body whorl in its look, with the bumps ``per_section`` joined."""
+    look, tex = _look(spec, seed, textured)
     if tex:
-        body = body_whorl(spec=spec, texture=tex["body"], lumps=per_section, age=age)
-        canal_wrap = SHELL_TEXTURES["canal_spine"].wrap
-        spiny = varices(spec, tex["varix_spine"], age) + [
-            s.texture(tex["canal_spine"], wrap=canal_wrap) for s in spines]
-    else:
-        if look == "plain":
-            body = body_whorl(spec=spec, colour=body_c, lumps=per_section, age=age)
-        else:
-            body = body_whorl(spec=spec, texture=_pattern_texture(look, seed, spec),
-                              period=spec.instances * spec.theta_s, lumps=per_section, age=age)
-        spiny = [v.color(varix_c) for v in varices(spec, age=age) + spines]
-    main = blend(body, *spiny) if spiny else body
-    return super_blend(main, *lumps, n=spec.bump_blend_n) if lumps else main
+        return body_whorl(spec=spec, texture=tex["body"], lumps=per_section, age=age)
+    if look == "plain":
+        return body_whorl(spec=spec, colour=spec.colours[0], lumps=per_section, age=age)
+    return body_whorl(spec=spec, texture=_pattern_texture(look, seed, spec),
+                      period=spec.instances * spec.theta_s, lumps=per_section, age=age)
+
+
+def _spiny(spec: ShellSpec, seed: int, textured: bool, age: float) -> list[Node]:
+    """:func:`outer_shell`'s varices and canal spines, painted."""
+    spines = canal_spines(_streams(seed)[1], spec, age)
+    _, tex = _look(spec, seed, textured)
+    if tex:
+        wrap = SHELL_TEXTURES["canal_spine"].wrap
+        return varices(spec, tex["varix_spine"], age) + [
+            s.texture(tex["canal_spine"], wrap=wrap) for s in spines]
+    return [v.color(spec.colours[1]) for v in varices(spec, age=age) + spines]
 
 
 def shell(spec: ShellSpec | Mapping | str | Path = "murex", seed: int = 0, inside: bool = True,

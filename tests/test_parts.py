@@ -1,0 +1,99 @@
+"""A shell's parts kept between builds (blobtree/models/parts.py): a build that takes kept
+parts is the tree built afresh, for a change of every spec value the explorer has a control
+for, the tables it has none for, the seed, the look and the age."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from blobtree.checks import Choice, Integer
+from blobtree.live import _controls_of, slider_range, with_control
+from blobtree.models import parts
+from blobtree.models.murex import shell
+from blobtree.models.spec import SHELLS, Flag, Numbers
+
+MUREX = SHELLS["murex"]
+
+
+def _other(kind, value):
+    """Another value a control of ``kind`` may take."""
+    if isinstance(kind, Flag):
+        return not value
+    if isinstance(kind, Choice):
+        return next(o for o in kind.options if o != value)
+    if isinstance(kind, Numbers):  # a colour
+        return (0.3, 0.6, 0.9)
+    lo, hi = slider_range(kind, value)
+    step = 0.1 * (hi - lo)
+    new = value + step if value + step <= hi else value - step
+    return max(int(round(new)), int(lo)) if isinstance(kind, Integer) else new
+
+
+def _changes():
+    """(label, spec, seed, textured, age) of each change built."""
+    for name, (_, kind, value) in _controls_of(MUREX).items():
+        try:
+            yield name, with_control(MUREX, name, _other(kind, value)), 0, True, 1.0
+        except ValueError:  # (a value the spec refuses: nothing to build)
+            continue
+    rows = MUREX.table_2
+    yield "table_2", replace(MUREX, table_2=rows[:-1] + ((rows[-1][0], rows[-1][1] * 1.1),)), \
+        0, True, 1.0
+    yield "table_1", replace(MUREX, table_1=MUREX.table_1[:-1] + (
+        tuple((a * 1.05, d) for a, d in MUREX.table_1[-1]),)), 0, True, 1.0
+    yield "seed", MUREX, 7, True, 1.0
+    yield "plain", MUREX, 0, False, 1.0
+    yield "age", MUREX, 0, True, 0.6
+
+
+@pytest.mark.slow
+def test_a_build_from_kept_parts_is_the_one_built_afresh():
+    parts.forget()
+    base = shell(MUREX, 0)
+    built = 0
+
+    def key(spec, seed, textured, age) -> str:
+        try:
+            return shell(spec, seed, textured=textured, age=age).key
+        except ValueError as e:  # (a bend too tight for its spine: refused either way)
+            return f"refused: {e}"
+
+    for label, *change in _changes():
+        kept = key(*change)  # the base's parts at hand
+        parts.forget()
+        assert kept == key(*change), label
+        parts.forget()
+        assert shell(MUREX, 0).key == base.key
+        built += 1
+    assert built > 60  # nearly every control (the spec refuses a few of the values)
+
+
+def test_a_part_is_kept_until_a_value_it_read_changes():
+    parts.forget()
+    calls = []
+
+    def build(spec, k):
+        calls.append(k)
+        return [spec.canal_tilt * k]
+
+    first = parts.part("test", build, MUREX, 2)
+    assert parts.part("test", build, replace(MUREX, bump_size=0.3), 2) is first  # not read
+    assert calls == [2]
+    assert parts.part("test", build, replace(MUREX, canal_tilt=40.0), 2) == [80.0]
+    assert parts.part("test", build, MUREX, 3) == [MUREX.canal_tilt * 3]  # another argument
+    assert calls == [2, 2, 3]
+    assert parts.part("test", build, MUREX, 2) is first
+    parts.forget()
+
+
+def test_same_tells_values_apart_to_the_bit():
+    assert parts.same((1.0, (2.0, "a")), (1.0, (2.0, "a")))
+    assert not parts.same(0.0, -0.0)
+    assert not parts.same(1, 1.0)
+    assert parts.same(np.arange(3.0), np.arange(3.0))
+    assert not parts.same(np.arange(3.0), np.arange(3.0) + 1e-16 * 3)
+    assert parts.same(MUREX.spiral, replace(MUREX.spiral))
+    assert not parts.same(MUREX.spiral, replace(MUREX.spiral, beta=MUREX.spiral.beta + 1e-9))
