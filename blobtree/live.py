@@ -27,6 +27,7 @@ from .checks import Choice, Integer, Kind, Number, short_repr
 from .engine.program import Reuse, compile_tree
 from .helico import KINDS as SPIRAL_KINDS
 from .helico import HelicoSpiral
+from .models.parts import Parts
 from .models.spec import FIELDS, SPIRAL_KEYS, Flag, Numbers, ShellSpec, to_toml
 from .output import write_file
 from .render import LOOKS, local_tiles, render, warm_kernels
@@ -85,6 +86,8 @@ class LiveShell:
         #: the subtrees of the last program compiled, copied into the next (a change
         #: compiles only the parts it touches)
         self._reuse = Reuse()
+        #: the parts of the shells built, handed back where a change leaves them as they were
+        self._parts = Parts(KEPT)
         self.timings: dict[str, float] = {}
 
     def set(self, spec: ShellSpec | None = None, seed: int | None = None) -> bool:
@@ -102,7 +105,7 @@ class LiveShell:
             self.timings.update(tree=0.0, program=0.0, framing=0.0)
             return built
         t0 = time.perf_counter()
-        tree = models.shell(*key)
+        tree = models.shell(*key, parts=self._parts)
         t1 = time.perf_counter()
         prog = compile_tree(tree, self._reuse)
         t2 = time.perf_counter()

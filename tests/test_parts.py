@@ -51,42 +51,40 @@ def _changes():
 
 @pytest.mark.slow
 def test_a_build_from_kept_parts_is_the_one_built_afresh():
-    parts.forget()
-    base = shell(MUREX, 0)
-    built = 0
 
-    def key(spec, seed, textured, age) -> str:
+    def key(spec, seed, textured, age, kept=parts.FRESH) -> str:
         try:
-            return shell(spec, seed, textured=textured, age=age).key
+            return shell(spec, seed, textured=textured, age=age, parts=kept).key
         except ValueError as e:  # (a bend too tight for its spine: refused either way)
             return f"refused: {e}"
 
+    built = 0
     for label, *change in _changes():
-        kept = key(*change)  # the base's parts at hand
-        parts.forget()
-        assert kept == key(*change), label
-        parts.forget()
-        assert shell(MUREX, 0).key == base.key
+        kept = parts.Parts(8)
+        shell(MUREX, 0, parts=kept)  # the base's parts at hand
+        assert key(*change, kept=kept) == key(*change), label
         built += 1
     assert built > 60  # nearly every control (the spec refuses a few of the values)
 
 
 def test_a_part_is_kept_until_a_value_it_read_changes():
-    parts.forget()
     calls = []
 
     def build(spec, k):
         calls.append(k)
         return [spec.canal_tilt * k]
 
-    first = parts.part("test", build, MUREX, 2)
-    assert parts.part("test", build, replace(MUREX, bump_size=0.3), 2) is first  # not read
+    kept = parts.Parts(2)
+    first = kept.part("test", build, MUREX, 2)
+    assert kept.part("test", build, replace(MUREX, bump_size=0.3), 2) is first  # not read
     assert calls == [2]
-    assert parts.part("test", build, replace(MUREX, canal_tilt=40.0), 2) == [80.0]
-    assert parts.part("test", build, MUREX, 3) == [MUREX.canal_tilt * 3]  # another argument
+    assert kept.part("test", build, replace(MUREX, canal_tilt=40.0), 2) == [80.0]
+    assert kept.part("test", build, MUREX, 3) == [MUREX.canal_tilt * 3]  # another argument
     assert calls == [2, 2, 3]
-    assert parts.part("test", build, MUREX, 2) is first
-    parts.forget()
+    assert kept.part("test", build, MUREX, 2) is not first  # the oldest of three, dropped
+    assert calls == [2, 2, 3, 2]
+    assert parts.FRESH.part("test", build, MUREX, 2) is not parts.FRESH.part(
+        "test", build, MUREX, 2)  # keeps nothing
 
 
 def test_same_tells_values_apart_to_the_bit():

@@ -44,7 +44,7 @@ from ..texture.mapping import HelicoSurface
 from ..texture.shell import SHELL_TEXTURES, VARIX_PALE, shell_textures
 from .age import Growth, grown, varix_position
 from .growth import grown_varices
-from .parts import part
+from .parts import FRESH, Parts
 from .spec import SHELLS, ShellSpec, load_spec
 
 # ---------------------------------------------------------------------------------------------
@@ -740,7 +740,7 @@ def _paper_textures(seed: int) -> Mapping[str, np.ndarray]:
 
 
 def outer_shell(seed: int = 0, spec: ShellSpec = DEFAULT, textured: bool = True,
-                age: float = 1.0) -> Node:
+                age: float = 1.0, parts: Parts = FRESH) -> Node:
     """B_shell of Eq. 15: the main body whorl with its varices and canal spines blended in, and
     the bumps joined by the super-elliptic blend n = 400 (Section 3.2), or with ``bumps.join =
     "gradient"`` each section's bumps joined to it by the gradient-based blend (ours,
@@ -750,11 +750,13 @@ def outer_shell(seed: int = 0, spec: ShellSpec = DEFAULT, textured: bool = True,
     the paper's two methods (Section 3.4): (a) per section by a bounding surface, (b)-(d) on the
     varix spines, bumps and canal spines, field-interpolated; or a grown pigment pattern on the
     body; otherwise plain colours.  The geometry is the same either way.  ``age``: as it was at
-    that fraction of its life (:mod:`blobtree.models.age`; the same draws from ``seed``)."""
+    that fraction of its life (:mod:`blobtree.models.age`; the same draws from ``seed``).
+    ``parts``: the bumps, body and spines of earlier builds, taken where they read the same
+    spec values (:mod:`blobtree.models.parts`)."""
     _check_int("seed", seed, 0, 2**63 - 1)
-    per_section, lumps = part("bumps", _bumps, spec, seed, textured, age)
-    body = part("body", _body, spec, seed, textured, age, per_section)
-    spiny = part("spiny", _spiny, spec, seed, textured, age)
+    per_section, lumps = parts.part("bumps", _bumps, spec, seed, textured, age)
+    body = parts.part("body", _body, spec, seed, textured, age, per_section)
+    spiny = parts.part("spiny", _spiny, spec, seed, textured, age)
     main = blend(body, *spiny) if spiny else body
     return super_blend(main, *lumps, n=spec.bump_blend_n) if lumps else main
 
@@ -813,7 +815,7 @@ def _spiny(spec: ShellSpec, seed: int, textured: bool, age: float) -> list[Node]
 
 
 def shell(spec: ShellSpec | Mapping | str | Path = "murex", seed: int = 0, inside: bool = True,
-          textured: bool = True, age: float | None = None) -> Node:
+          textured: bool = True, age: float | None = None, parts: Parts = FRESH) -> Node:
     """A whole shell from its spec (Eq. 15 for the Murex), by ``opening.wall_join``:
     'union', the paper's B = (B_shell - B_opening) U B_inside_wall, or 'clipped' (the shipped
     specs'), B = B_shell - (B_opening - B_inside_wall).
@@ -849,11 +851,14 @@ def shell(spec: ShellSpec | Mapping | str | Path = "murex", seed: int = 0, insid
     ``age``: the shell as it was at that fraction of its life, in [0, 1] (None or 1: the whole
     shell; :mod:`blobtree.models.age`): its lip where it stood then, the opening carved there
     (Eqs. 14-15), the canal under the last sections before it, the varices formed and the bumps
-    passed by then, the newest part growing.  Its volume never falls as ``age`` rises."""
+    passed by then, the newest part growing.  Its volume never falls as ``age`` rises.
+
+    ``parts``: a :class:`~blobtree.models.parts.Parts` kept across the builds of a modelling
+    session, which hands back the parts a changed spec leaves as they were (the same tree)."""
     spec = load_spec(spec)
     age = 1.0 if age is None else Growth(spec, age).age
     inside_c = spec.colours[3]
-    carved = outer_shell(seed, spec, textured, age)
+    carved = outer_shell(seed, spec, textured, age, parts)
     if spec.opening:
         hole = opening(spec, age).color(inside_c)
         wall = inside_wall(spec, age).color(inside_c) if inside else None

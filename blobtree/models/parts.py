@@ -8,6 +8,10 @@ asks for and its value; the part is kept with those reads (and the build's other
 a later build whose spec gives equal values for all of them gets the same nodes back, their
 structural keys and boxes already computed.  What a part depends on is what it read, not a list
 kept by hand, so a new spec field or a new use of one cannot leave a stale part behind.
+
+The parts are kept by a :class:`Parts` that a modelling session owns (``LiveShell``, and so the
+explorer and ``blobtree watch``) and passes to every build; a build without one keeps nothing
+(the Murex's kept builds take about 8 MB each).
 """
 
 from __future__ import annotations
@@ -22,23 +26,25 @@ import numpy as np
 
 from .spec import ShellSpec
 
-#: Builds kept per part (as many as the live explorer keeps trees).
-KEPT = 8
-
 
 class Reads:
     """A spec that records each attribute read from it (name -> value): pass it where the spec
     goes; ``read`` holds what the build asked for."""
 
-    __slots__ = ("_spec", "read")
+    __slots__ = ("_spec", "_read")
 
     def __init__(self, spec: ShellSpec) -> None:
         self._spec = spec
-        self.read: dict[str, Any] = {}
+        self._read: dict[str, Any] = {}
+
+    @property
+    def read(self) -> dict[str, Any]:
+        """The attributes read so far and their values."""
+        return self._read
 
     def __getattr__(self, name: str) -> Any:
         value = getattr(self._spec, name)
-        self.read[name] = value
+        self._read[name] = value
         return value
 
 
@@ -61,34 +67,44 @@ def same(a: Any, b: Any) -> bool:
     return bool(a == b)
 
 
-_KEPT: dict[str, OrderedDict[int, tuple[tuple, dict[str, Any], Any]]] = {}
-_LOCK = threading.Lock()
-_COUNT = iter(range(1 << 62))
+class Parts:
+    """The parts of the shells built with it, kept between builds (the last ``kept`` builds of
+    each part): pass one to :func:`~blobtree.models.shell` for every build of a modelling
+    session (``blobtree.live.LiveShell`` does).  Nodes are values, so sharing them between
+    trees is safe; ``kept=0`` keeps nothing."""
+
+    def __init__(self, kept: int) -> None:
+        self.kept = kept
+        self._builds: dict[str, OrderedDict[int, tuple[tuple, dict[str, Any], Any]]] = {}
+        self._lock = threading.Lock()
+        self._count = 0
+
+    def part(self, name: str, build: Callable[..., Any], spec: ShellSpec, *args: Any) -> Any:
+        """``build(spec, *args)``, or the result of an earlier build of part ``name`` whose
+        ``args`` and every spec value it read are the :func:`same` as now."""
+        if not self.kept:
+            return build(spec, *args)
+        with self._lock:
+            kept = list(self._builds.get(name, {}).items())
+        for entry, (was, read, result) in reversed(kept):  # the latest first
+            if same(was, args) and all(same(getattr(spec, k), v) for k, v in read.items()):
+                with self._lock:
+                    if entry in self._builds.get(name, {}):
+                        self._builds[name].move_to_end(entry)
+                return result
+        reads = Reads(spec)
+        result = build(reads, *args)
+        with self._lock:
+            builds = self._builds.setdefault(name, OrderedDict())
+            self._count += 1
+            builds[self._count] = (args, dict(reads.read), result)
+            while len(builds) > self.kept:
+                builds.popitem(last=False)
+        return result
 
 
-def part(name: str, build: Callable[..., Any], spec: ShellSpec, *args: Any) -> Any:
-    """``build(spec, *args)``, or the result of an earlier build of part ``name`` whose ``args``
-    and every spec value it read are the :func:`same` as now.  Nodes are values, so sharing
-    them between trees is safe."""
-    with _LOCK:
-        kept = list(_KEPT.get(name, {}).items())
-    for entry, (was, read, result) in reversed(kept):  # the latest first
-        if same(was, args) and all(same(getattr(spec, k), v) for k, v in read.items()):
-            with _LOCK:
-                if entry in _KEPT.get(name, {}):
-                    _KEPT[name].move_to_end(entry)
-            return result
-    reads = Reads(spec)
-    result = build(reads, *args)
-    with _LOCK:
-        kept_now = _KEPT.setdefault(name, OrderedDict())
-        kept_now[next(_COUNT)] = (args, dict(reads.read), result)
-        while len(kept_now) > KEPT:
-            kept_now.popitem(last=False)
-    return result
+#: Parts built afresh every time (what a build without its own :class:`Parts` uses).
+FRESH = Parts(kept=0)
 
 
-def forget() -> None:
-    """Drop every kept part (the next builds start afresh)."""
-    with _LOCK:
-        _KEPT.clear()
+__all__ = ["FRESH", "Parts", "Reads", "same"]
