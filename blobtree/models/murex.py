@@ -853,8 +853,8 @@ def shell(spec: ShellSpec | Mapping | str | Path = "murex", seed: int = 0, insid
     (Eqs. 14-15), the canal under the last sections before it, the varices formed and the bumps
     passed by then, the newest part growing.  Its volume never falls as ``age`` rises.
 
-    ``parts``: a :class:`~blobtree.models.parts.Parts` kept across the builds of a modelling
-    session, which hands back the parts a changed spec leaves as they were (the same tree)."""
+    ``parts``: a :class:`~blobtree.models.parts.Parts` kept across the builds of a spec being
+    changed, which hands back the parts a change leaves as they were (the same tree)."""
     spec = load_spec(spec)
     age = 1.0 if age is None else Growth(spec, age).age
     inside_c = spec.colours[3]

@@ -9,9 +9,9 @@ a later build whose spec gives equal values for all of them gets the same nodes 
 structural keys and boxes already computed.  What a part depends on is what it read, not a list
 kept by hand, so a new spec field or a new use of one cannot leave a stale part behind.
 
-The parts are kept by a :class:`Parts` that a modelling session owns (``LiveShell``, and so the
-explorer and ``blobtree watch``) and passes to every build; a build without one keeps nothing
-(the Murex's kept builds take about 8 MB each).
+The parts are kept by a :class:`Parts` that the one changing a spec owns (``LiveShell``, and so
+the explorer and ``blobtree watch``) and passes to every build; a build without one keeps
+nothing (the Murex's kept builds take about 8 MB each).
 """
 
 from __future__ import annotations
@@ -69,8 +69,8 @@ def same(a: Any, b: Any) -> bool:
 
 class Parts:
     """The parts of the shells built with it, kept between builds (the last ``kept`` builds of
-    each part): pass one to :func:`~blobtree.models.shell` for every build of a modelling
-    session (``blobtree.live.LiveShell`` does).  Nodes are values, so sharing them between
+    each part): pass one to :func:`~blobtree.models.shell` for every build of a spec being
+    changed (``blobtree.live.LiveShell`` does).  Nodes are values, so sharing them between
     trees is safe; ``kept=0`` keeps nothing."""
 
     def __init__(self, kept: int) -> None:
