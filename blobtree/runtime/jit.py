@@ -50,7 +50,17 @@ def engine_key() -> str:
 
 
 class _QuickCache(FunctionCache):
-    """numba's function cache, loading without first refreshing the target context."""
+    """numba's function cache, loading without first refreshing the target context; ``tag``
+    (if any) in every key tells apart the kernels compiled from one function (see
+    :func:`_twin_njit`)."""
+
+    def __init__(self, py_func: Callable, tag: str = "") -> None:
+        super().__init__(py_func)
+        self._tag = tag
+
+    def _index_key(self, sig, codegen):
+        key = super()._index_key(sig, codegen)
+        return (*key, self._tag) if self._tag else key
 
     def load_overload(self, sig, target_context):
         """numba's, without the refresh: it imports and installs every registry numba has
@@ -78,11 +88,7 @@ class _QuickCache(FunctionCache):
 
 
 class _EngineCache(_QuickCache):
-    """The quick-loading cache, with the engine's digest and a closure tag in every key."""
-
-    def __init__(self, py_func: Callable, tag: str) -> None:
-        super().__init__(py_func)
-        self._tag = tag
+    """The quick-loading cache, with the engine's digest and the tag in every key."""
 
     def _index_key(self, sig, codegen):
         code = hashlib.sha256(self._py_func.__code__.co_code).hexdigest()
@@ -110,24 +116,39 @@ def cached(fn: Callable | None = None, **options):
     own source file is key enough."""
 
     def wrap(f: Callable):
-        dispatcher = numba.njit(**options)(f)
-        dispatcher._cache = _LazyCache(lambda: _QuickCache(f))
-        return dispatcher
+        return _twin_njit(f, options, functools.partial(_QuickCache, f), literal=True)
 
     return wrap(fn) if fn is not None else wrap
 
 
-def kernel(fn: Callable | None = None, *, tag: str = "", nrt: bool = False,
-           literal: bool = False, **options):
+def _twin_njit(f: Callable, options: dict, make_cache: Callable[[str], FunctionCache], *,
+               literal: bool):
+    """``numba.njit(**options)(f)`` with the cache ``make_cache(tag)``, which compiled callers
+    do not call: their calls are typed and linked to a twin compiled without numba's Python and
+    C wrappers.  Only a call from Python needs a wrapper, yet numba makes both for every kernel
+    it compiles and optimises and emits them: most kernels are only ever called by other
+    kernels (a first ``render murex`` compiles some 150), and their wrappers took some 20% of
+    the compiling.  A kernel called both ways is compiled once for each.  Without ``literal``,
+    constant arguments of compiled calls are typed as plain values (:func:`_call_template`)."""
+    dispatcher = numba.njit(**options)(f)
+    dispatcher._cache = _LazyCache(lambda: make_cache(""))
+    twin = numba.njit(no_cpython_wrapper=True, no_cfunc_wrapper=True, **options)(f)
+    twin._cache = _LazyCache(lambda: make_cache("twin"))
+    dispatcher.get_call_template = (twin.get_call_template if literal else
+                                    functools.partial(_call_template, twin))
+    dispatcher.get_overload = twin.get_overload  # (what a compiled call links to)
+    return dispatcher
+
+
+def kernel(fn: Callable | None = None, *, tag: str = "", nrt: bool = False, **options):
     """``numba.njit(**options)`` with the engine-keyed cache and numpy's error model (a division
     by zero gives inf or NaN instead of raising, and loops without such checks vectorise).
 
     By default kernels are compiled without numba's reference counting (see docs/engine.md:
-    such a kernel must not allocate); ``nrt=True`` for one that allocates.  ``literal=True``
-    compiles a copy of the kernel for each constant a compiled caller passes it (numba's
-    default), so the copy folds the constant in; otherwise constants are typed as plain values
-    and the kernel is compiled once.  ``tag`` names a closure made by a factory (see the module
-    doc).
+    such a kernel must not allocate); ``nrt=True`` for one that allocates.  Constants a
+    compiled caller passes are typed as plain values, so the kernel is compiled once rather
+    than once per constant (:func:`_call_template`); compiled callers call its wrapperless twin
+    (:func:`_twin_njit`).  ``tag`` names a closure made by a factory (see the module doc).
     """
 
     def wrap(f: Callable):
@@ -136,11 +157,8 @@ def kernel(fn: Callable | None = None, *, tag: str = "", nrt: bool = False,
             opts.setdefault("forceinline", False)
         if not nrt:
             opts["_nrt"] = False
-        dispatcher = numba.njit(**opts)(f)
-        dispatcher._cache = _LazyCache(lambda: _EngineCache(f, tag))
-        if not literal:
-            dispatcher.get_call_template = functools.partial(_call_template, dispatcher)
-        return dispatcher
+        return _twin_njit(f, opts, lambda twin: _EngineCache(f, f"{tag}:{twin}"),
+                          literal=False)
 
     return wrap(fn) if fn is not None else wrap
 
