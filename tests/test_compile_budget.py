@@ -135,3 +135,60 @@ def test_the_partners_range_entry_is_the_one_framing_runs():
     f = Point().translate(0.1, 0.0, 0.0).program().field(np.zeros((3, 3)))
     assert f.shape == (3,) and np.all(f > 0.5)  # inside the point's ball
     assert set(eval_range.signatures) == compiled
+
+
+_TWINS = '''
+from blobtree.runtime.jit import cached, kernel
+
+@kernel
+def double(x):
+    return 2 * x
+
+@kernel
+def double_plus_one(x):
+    return double(x) + 1
+
+@cached
+def triple(x):
+    return 3 * x
+
+@cached
+def triple_plus_one(x):
+    return triple(x) + 1
+'''
+
+_CALLS = """
+import json
+import twins
+out = {"compiled": [twins.double_plus_one(3), twins.triple_plus_one(3)],
+       "unwrapped": [],
+       "python_signatures_before": [len(twins.double.signatures), len(twins.triple.signatures)]}
+for f in (twins.double, twins.triple):
+    twin = f.get_overload.__self__  # what compiled callers link
+    for cres in twin.overloads.values():
+        ir = cres.library.get_llvm_str() if cres.library._final_module is not None else ""
+        out["unwrapped"].append(cres.fndesc.llvm_cpython_wrapper_name not in ir)
+out["python"] = [twins.double(3), twins.triple(3)]
+print(json.dumps(out))
+"""
+
+
+def test_compiled_callers_link_a_twin_without_wrappers(tmp_path):
+    """A kernel called from a kernel is typed and linked against its twin compiled without
+    numba's Python and C wrappers (``jit._twin_njit``): the dispatcher Python calls compiles
+    nothing for it, and a call from Python then compiles its own, wrapped.  Run twice on one
+    cache: the second loads both; were the two keyed alike, the Python call would load the
+    wrapperless twin and crash the process."""
+    (tmp_path / "twins.py").write_text(_TWINS)
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache"),
+           "PYTHONPATH": f"{ROOT}{os.pathsep}{tmp_path}"}
+    for run in ("compiled", "loaded"):
+        done = subprocess.run([sys.executable, "-c", _CALLS], capture_output=True, text=True,
+                              env=env, cwd=tmp_path)
+        assert done.returncode == 0, f"{run}: {done.stderr[-2000:]}"
+        out = json.loads(done.stdout.splitlines()[-1])
+        assert out["compiled"] == [7, 10]
+        assert out["python_signatures_before"] == [0, 0]
+        assert out["python"] == [6, 9]
+        if run == "compiled":  # (code loaded from the cache has no IR to read)
+            assert out["unwrapped"] == [True, True]

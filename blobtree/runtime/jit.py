@@ -126,10 +126,12 @@ def _twin_njit(f: Callable, options: dict, make_cache: Callable[[str], FunctionC
     """``numba.njit(**options)(f)`` with the cache ``make_cache(tag)``, which compiled callers
     do not call: their calls are typed and linked to a twin compiled without numba's Python and
     C wrappers.  Only a call from Python needs a wrapper, yet numba makes both for every kernel
-    it compiles and optimises and emits them: most kernels are only ever called by other
-    kernels (a first ``render murex`` compiles some 150), and their wrappers took some 20% of
-    the compiling.  A kernel called both ways is compiled once for each.  Without ``literal``,
-    constant arguments of compiled calls are typed as plain values (:func:`_call_template`)."""
+    it compiles and optimises and emits them, though most kernels are only ever called by
+    other kernels (a first ``render murex`` compiles some 150): building the wrappers took a
+    tenth of a cold point walk's compiling, and a first render takes a fifth less time without
+    them (docs/benchmarks.md).  A kernel called both ways is compiled once for each.  Without
+    ``literal``, constant arguments of compiled calls are typed as plain values
+    (:func:`_call_template`)."""
     dispatcher = numba.njit(**options)(f)
     dispatcher._cache = _LazyCache(lambda: make_cache(""))
     twin = numba.njit(no_cpython_wrapper=True, no_cfunc_wrapper=True, **options)(f)
