@@ -137,25 +137,11 @@ def test_the_partners_range_entry_is_the_one_framing_runs():
     assert set(eval_range.signatures) == compiled
 
 
-_TWINS = '''
-from blobtree.runtime.jit import cached, kernel
-
-@kernel
-def double(x):
-    return 2 * x
-
-@kernel
-def double_plus_one(x):
-    return double(x) + 1
-
-@cached
-def triple(x):
-    return 3 * x
-
-@cached
-def triple_plus_one(x):
-    return triple(x) + 1
-'''
+#: Two kernel pairs, one per decorator: a kernel and one that calls it.
+_TWINS = "from blobtree.runtime.jit import cached, kernel\n" + "".join(
+    f"\n@{deco}\ndef {name}(x):\n    return {k} * x\n"
+    f"\n@{deco}\ndef {name}_plus_one(x):\n    return {name}(x) + 1\n"
+    for deco, name, k in (("kernel", "double", 2), ("cached", "triple", 3)))
 
 _CALLS = """
 import json

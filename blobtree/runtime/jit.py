@@ -112,8 +112,9 @@ class _LazyCache:
 
 def cached(fn: Callable | None = None, **options):
     """``numba.njit(cache=True, **options)``, its cache loading without numba's registry refresh
-    (:class:`_QuickCache`): for kernels that call no engine kernel (the mesher's), so that their
-    own source file is key enough."""
+    (:class:`_QuickCache`), compiled callers calling its wrapperless twin (:func:`_twin_njit`):
+    for kernels that call no engine kernel (the mesher's), so that their own source file is key
+    enough."""
 
     def wrap(f: Callable):
         return _twin_njit(f, options, functools.partial(_QuickCache, f), literal=True)
