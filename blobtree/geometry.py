@@ -36,12 +36,25 @@ _EYE = np.eye(3)
 _EYE.setflags(write=False)
 
 
+def _cross_matrix(axis: str | Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
+    """K, the cross-product matrix of the unit axis (K x = u x x), and K @ K."""
+    u = axis_vector(axis)
+    k = np.array([[0.0, -u[2], u[1]], [u[2], 0.0, -u[0]], [-u[1], u[0], 0.0]])
+    return k, k @ k
+
+
+#: :func:`_cross_matrix` of "x", "y" and "z" (most rotations are about one of them).
+_CROSS = {a: _cross_matrix(a) for a in AXES}
+for _k in _CROSS.values():
+    for _m in _k:
+        _m.setflags(write=False)
+
+
 def rotation_matrix(axis: str | Sequence[float], degrees: float) -> np.ndarray:
     """3x3 rotation by ``degrees`` about ``axis`` (right-hand rule), Rodrigues' formula."""
-    u = axis_vector(axis)
+    k, kk = _CROSS[axis] if isinstance(axis, str) and axis in _CROSS else _cross_matrix(axis)
     t = math.radians(_DEGREES.check("degrees", degrees))
-    k = np.array([[0.0, -u[2], u[1]], [u[2], 0.0, -u[0]], [-u[1], u[0], 0.0]])
-    return _EYE + math.sin(t) * k + (1.0 - math.cos(t)) * (k @ k)
+    return _EYE + math.sin(t) * k + (1.0 - math.cos(t)) * kk
 
 
 def rotation_onto(a: np.ndarray, b: np.ndarray) -> np.ndarray:

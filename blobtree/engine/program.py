@@ -257,6 +257,10 @@ class _Emitter:
         #: (node id, frame, look) -> (code start, code end, params start, params end, box) of
         #: its first emission: a shared subtree is emitted once and copied after
         self.emitted: dict[tuple[int, bytes, int], tuple[int, int, int, int, geo.Box]] = {}
+        #: instruction -> (its frame, a factor, where its header's norm goes): the primitives,
+        #: PUSHPTs and POPPTs whose frame->local maps, their norms and the lips (factor times
+        #: norm) :meth:`frame_maps` computes for all at once (a POPPT takes only its lip: 0)
+        self.framed: dict[int, tuple[np.ndarray, float, int]] = {}
 
     def add(self, op: int, params=(), box: geo.Box | None = None, count: int = 0,
             lip: float = 0.0) -> int:
@@ -324,6 +328,7 @@ class _Emitter:
         offsets and jump targets moved with them (image offsets stay: images are placed before
         any instruction, see :func:`compile_tree`)."""
         dc, dp = len(self.code) - c0, len(self.params) - p0
+        self.framed.update({i + dc: self.framed[i] for i in range(c0, c1) if i in self.framed})
         self.code.extend([op, at + dp, to + dc, n] for op, at, to, n in self.code[c0:c1])
         self.params.extend(self.params[p0:p1])
         self.boxes.extend(self.boxes[c0:c1])
@@ -333,8 +338,8 @@ class _Emitter:
     def emit_new(self, node: Node, M: np.ndarray, look: int) -> geo.Box:
         """Emit ``node`` met for the first time in this frame (see :meth:`emit`)."""
         kind = node.KIND
-        if kind == "affine":
-            return self.emit(node.child, node.framed(M), look)
+        if kind == "affine":  # (a chain of them at once: only what lies below it is emitted)
+            return self.emit(*node.below(M), look)
         if kind == "primitive":
             return self.primitive(node, M, look)
         if kind == "paint":
@@ -394,35 +399,56 @@ class _Emitter:
         return parts
 
     def primitive(self, node: Primitive, M: np.ndarray, look: int) -> geo.Box:
-        inv = geo.invert(M)
+        """A primitive: its header (the frame->local map, R, falloff id, the map's norm; the
+        map and norm filled in by :meth:`program`), then its own parameters."""
         box = node.box(M)
-        norm = geo.spectral_norm(inv[:, :3])
-        header = [*inv.reshape(-1), node.field_radius, FALLOFFS[node.falloff], norm]
-        lip = node.lipschitz() * norm
-        self.add(opcode(node), header + node.pack(), box, count=look, lip=lip)
+        header = [0.0] * 12 + [node.field_radius, FALLOFFS[node.falloff], 0.0]
+        i = self.add(opcode(node), header + node.pack(), box, count=look)
+        self.framed[i] = (M, node.lipschitz(), 14)
         return box
 
     def warp(self, node: Warp, M: np.ndarray, look: int) -> geo.Box:
-        inv = geo.invert(M)
         box = node.box(M)
-        norm = geo.spectral_norm(inv[:, :3])
-        push = self.add(OP_PUSHPT, [*inv.reshape(-1), norm], box, lip=node.lipschitz() * norm)
+        push = self.add(OP_PUSHPT, [0.0] * 13, box)  # (the map and its norm: see primitive)
+        self.framed[push] = (M, node.lipschitz(), 12)
         w = self.add(opcode(node), [*node.canonical.reshape(-1), *node.pack()], node.own_box,
                      lip=node.stretch)
         self.emit(node.child, geo.IDENTITY, look)
         self.code[w][SKIP] = len(self.code)  # a miss jumps to POPPT
         # POPPT's lip: the factor from the warp's child frame to the outer frame
-        self.add(OP_POPPT, lip=node.stretch * norm)
+        self.framed[self.add(OP_POPPT)] = (M, node.stretch, 0)
         self.code[push][SKIP] = len(self.code)
         return box
 
+    def frame_maps(self, code: np.ndarray, params: np.ndarray, lips: np.ndarray) -> None:
+        """Fill in the frame->local maps of the primitives and PUSHPTs, their norms and the
+        lips that scale with them, all in one pass (numpy's batched inverse and singular
+        values give each matrix the bits they give it alone)."""
+        if not self.framed:
+            return
+        rows = np.fromiter(self.framed, dtype=np.int64, count=len(self.framed))
+        frames = np.array([f for f, _, _ in self.framed.values()]).reshape(-1, 3, 4)
+        factor = np.array([k for _, k, _ in self.framed.values()])
+        place = np.array([h for _, _, h in self.framed.values()])
+        a = np.linalg.inv(frames[:, :, :3])
+        inv = np.concatenate([a, -(a @ frames[:, :, 3:])], axis=2)
+        norm = np.linalg.svd(a, compute_uv=False)[:, 0]
+        lips[rows] = factor * norm
+        mapped = place > 0
+        at = code[rows[mapped], OFFSET]
+        params[at[:, None] + np.arange(12)] = inv[mapped].reshape(-1, 12)
+        params[at + place[mapped]] = norm[mapped]
+
     def program(self, root: Node) -> Program:
         code = np.array(self.code, dtype=np.int64).reshape(-1, 4)
+        params = np.concatenate([*self.image_blocks, np.array(self.params, dtype=np.float64)])
+        lips = np.array(self.lips, dtype=np.float64)
+        self.frame_maps(code, params, lips)
         return Program(
             code=code,
-            params=np.concatenate([*self.image_blocks, np.array(self.params, dtype=np.float64)]),
+            params=params,
             boxes=np.array(self.boxes, dtype=np.float64).reshape(-1, 6),
-            lips=np.array(self.lips, dtype=np.float64),
+            lips=lips,
             depth=_stack_depth(code),
             bounds=root.bounds(),
         )

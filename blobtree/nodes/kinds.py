@@ -188,8 +188,17 @@ class Affine(Unary):
             memo[key].setflags(write=False)
         return memo[key]
 
+    def below(self, L: np.ndarray) -> tuple[Node, np.ndarray]:
+        """The first node below this chain of affine nodes that is not one, and its frame seen
+        through L (the chain's maps composed from the top, as :meth:`framed` composes them)."""
+        node, M = self.child, self.framed(L)
+        while node.KIND == "affine":
+            node, M = node.child, node.framed(M)
+        return node, M
+
     def _box(self, L):
-        return self.child.box(self.framed(L))
+        node, M = self.below(L)
+        return node.box(M)
 
     def _lipschitz(self):
         return self.child.lipschitz() * geo.spectral_norm(self.inverse[:, :3])
