@@ -67,6 +67,30 @@ def test_a_build_from_kept_parts_is_the_one_built_afresh():
     assert built > 60  # nearly every control (the spec refuses a few of the values)
 
 
+def test_a_spiral_change_keeps_the_pieces_in_their_local_frames():
+    """The bumps, varices and canal spines are built in their local frames apart from their
+    placing by Eq. 8, which alone reads the spiral: a change of the spiral places the very
+    nodes of the build before again (their keys and boxes known), as it did the whole part."""
+    def local_pieces(tree) -> set[int]:  # what lies below each Eq. 8 placing (r(Y) t s)
+        out = set()
+        for node in tree.walk():
+            if node.TYPE == "rotate" and node.axis == "y" and node.child.TYPE == "translate" \
+                    and node.child.child.TYPE == "scale":  # the placing's scale by D ...
+                out.add(id(node.child.child.child))  # ... and the piece it scales
+        return out
+
+    kept = parts.Parts(2)
+    before = shell(MUREX, 0, parts=kept)
+    after = shell(with_control(MUREX, "spiral.beta", MUREX.spiral.beta + 1.0), 0, parts=kept)
+    assert after.key != before.key and after.key == shell(with_control(
+        MUREX, "spiral.beta", MUREX.spiral.beta + 1.0), 0).key
+    shared = local_pieces(before) & local_pieces(after)
+    # every bump, varix and canal spine (the body's instances read the spiral themselves)
+    pieces = sum(1 for n in after.walk() if n.TYPE in ("texture", "color")
+                 and n.child.TYPE == "rotate" and n.child.axis == "y")
+    assert len(shared) >= pieces > 300
+
+
 def test_a_part_is_kept_until_a_value_it_read_changes():
     calls = []
 

@@ -441,13 +441,29 @@ def varices(spec: ShellSpec = DEFAULT, texture: np.ndarray | None = None,
     cones (Section 3.4), the tori and ridges painted in the texture's pale ground colour.
     ``age``: the varices formed by that fraction of the shell's life, the one forming grown
     part way (:mod:`blobtree.models.age`), and ridges only where the canal is then."""
+    return placed_varices(local_varices(spec, texture, age), spec, age, texture is not None)
+
+
+def local_varices(spec: ShellSpec = DEFAULT, texture: np.ndarray | None = None,
+                  age: float = 1.0) -> list[tuple[int, float, Node]]:
+    """:func:`varices` before Eq. 8, without the ridges: (k, size, varix k in its local frame,
+    painted) for each varix formed by ``age``, size how far it has grown."""
     growth = Growth(spec, age)
-    which = [k for k in _shell_varices(spec) if growth.varix(k)]
-    ridged = [(k, _ridge_size(k, growth)) for k in which] if spec.varices_down_canal else []
+    return [(k, growth.varix(k), _local_varix(k, spec, texture))
+            for k in _shell_varices(spec) if growth.varix(k)]
+
+
+def placed_varices(local: list[tuple[int, float, Node]], spec: ShellSpec = DEFAULT,
+                   age: float = 1.0, pale: bool = False) -> list[Node]:
+    """The varices of :func:`local_varices` placed by Eq. 8, and their ridges down the canal
+    (``down_canal``; ``pale``: painted in the texture's pale ground colour)."""
+    growth = Growth(spec, age)
+    ridged = [(k, _ridge_size(k, growth)) for k, _, _ in local] if spec.varices_down_canal \
+        else []
     ridges = [canal_ridge(k, spec, size) for k, size in ridged if size]
-    if texture is not None:
+    if pale:
         ridges = [r.color(VARIX_PALE) for r in ridges]
-    return [placed_varix(k, spec, texture, growth.varix(k)) for k in which] + ridges
+    return [placed(v, varix_position(k, spec), size, spec) for k, size, v in local] + ridges
 
 
 def placed_varix(k: int, spec: ShellSpec = DEFAULT, texture: np.ndarray | None = None,
@@ -456,13 +472,16 @@ def placed_varix(k: int, spec: ShellSpec = DEFAULT, texture: np.ndarray | None =
     angle; with ``texture`` (Figure 12(b)), field-interpolated on the spines' cones, the tori
     painted in the texture's pale ground colour; grown to ``size`` of itself (while it forms,
     :mod:`blobtree.models.age`)."""
+    return placed(_local_varix(k, spec, texture), varix_position(k, spec), size, spec)
+
+
+def _local_varix(k: int, spec: ShellSpec, texture: np.ndarray | None) -> Node:
+    """Varix k of :func:`placed_varix` in its local frame."""
     w, row = whorl_of_varix(k, spec), varix_row(k, spec)
     if texture is None:
-        v = varix(w, spec=spec, row=row)
-    else:
-        wrap = SHELL_TEXTURES["varix_spine"].wrap
-        v = varix(w, spec=spec, tori_rgb=VARIX_PALE, row=row).texture(texture, wrap=wrap)
-    return placed(v, varix_position(k, spec), size, spec)
+        return varix(w, spec=spec, row=row)
+    wrap = SHELL_TEXTURES["varix_spine"].wrap
+    return varix(w, spec=spec, tori_rgb=VARIX_PALE, row=row).texture(texture, wrap=wrap)
 
 
 def _ridge_size(k: int, growth: Growth) -> float:
@@ -490,13 +509,12 @@ def canal_ridge(k: int, spec: ShellSpec = DEFAULT, size: float = 1.0) -> Node:
                   size, spec)
 
 
-def bump_set(row: Sequence[tuple[float, float]], theta: float,
-             rng: np.random.Generator | None = None, spec: ShellSpec = DEFAULT,
-             size: float = 1.0) -> list[Node]:
-    """One set of bumps (Figure 8) at angle theta: a point per second curving spine of a varix
-    row (alpha_i, delta_i), scaled by (zeta_x, zeta_y, zeta_z + 0.8), zeta ~ N(s, s/10) (all s
-    without ``rng``), placed like the spines (Eq. 11) and by Eq. 8; grown to ``size`` of
-    itself (none at 0, their zeta still drawn: :mod:`blobtree.models.age`)."""
+def bump_set(row: Sequence[tuple[float, float]], rng: np.random.Generator | None = None,
+             spec: ShellSpec = DEFAULT, size: float = 1.0) -> list[Node]:
+    """One set of bumps (Figure 8) in the local frame, ready for Eq. 8: a point per second
+    curving spine of a varix row (alpha_i, delta_i), scaled by (zeta_x, zeta_y, zeta_z + 0.8),
+    zeta ~ N(s, s/10) (all s without ``rng``), placed like the spines (Eq. 11); grown to
+    ``size`` of itself (none at 0, their zeta still drawn: :mod:`blobtree.models.age`)."""
     s = spec.bump_size
     out = []
     for alpha, _ in row[::2]:
@@ -508,7 +526,7 @@ def bump_set(row: Sequence[tuple[float, float]], theta: float,
             .rotate("z", alpha)
         )
         if size:
-            out.append(place(grown(to_shell_frame(bump), size), theta, spec.spiral))
+            out.append(grown(to_shell_frame(bump), size))
     return out
 
 
@@ -536,6 +554,14 @@ def bumps(seed: int | np.random.Generator | None = 0, intervals: range | list[in
     spine of varix k + 1, which ends the section (its whorl's, Table 1); random sizes unless
     ``seed`` is None.  ``age``: those the lip has passed by that fraction of the shell's life,
     the newest growing (:mod:`blobtree.models.age`; the sizes drawn are the same at any age)."""
+    return placed_bumps(local_bumps(seed, intervals, spec, age), spec)
+
+
+def local_bumps(seed: int | np.random.Generator | None = 0,
+                intervals: range | list[int] | None = None, spec: ShellSpec = DEFAULT,
+                age: float = 1.0) -> list[tuple[int, float, Node]]:
+    """:func:`bumps` before Eq. 8: (k, x, bump) per bump, k its section, x its instance
+    position (theta_s x), the bump in its local frame, grown (nothing here reads the spiral)."""
     rng = None if seed is None else _rng(seed)
     growth = Growth(spec, age)
     ks = range(1, spec.sections) if intervals is None else intervals
@@ -546,8 +572,13 @@ def bumps(seed: int | np.random.Generator | None = 0, intervals: range | list[in
         row = varix_row(k + 1, spec)
         for m in range(sets):
             at = per * k - 0.5 + (m + 1) * per / (sets + 1)
-            out += bump_set(row, instance_angle(at, spec), rng, spec, growth.size(at))
+            out += [(k, at, b) for b in bump_set(row, rng, spec, growth.size(at))]
     return out
+
+
+def placed_bumps(local: list[tuple[int, float, Node]], spec: ShellSpec = DEFAULT) -> list[Node]:
+    """The bumps of :func:`local_bumps` placed by Eq. 8 at their instance positions."""
+    return [place(b, instance_angle(at, spec), spec.spiral) for _, at, b in local]
 
 
 def canal_spine(size: float, rng: np.random.Generator | None = None,
@@ -611,6 +642,14 @@ def canal_spines(seed: int | np.random.Generator | None = 0,
     None.  ``age``: under the last varices formed by that fraction of the shell's life
     (:mod:`blobtree.models.age`): Table 2's rows repeat along the spiral, so each varix keeps
     the row it formed with (the whole shell's last varices have rows 1, 2, 3 in order)."""
+    return placed_canal_spines(local_canal_spines(seed, spec, age), spec)
+
+
+def local_canal_spines(seed: int | np.random.Generator | None = 0, spec: ShellSpec = DEFAULT,
+                       age: float = 1.0) -> list[tuple[int, float, Node]]:
+    """:func:`canal_spines` before Eq. 8: (k, size, spine in its local frame) for each spine
+    under varix k, size how far it has grown (the varices that share a row of Table 2 share
+    its spines' nodes)."""
     if not spec.canal_sections or not spec.table_2:
         return []
     rng = None if seed is None else _rng(seed)
@@ -620,9 +659,15 @@ def canal_spines(seed: int | np.random.Generator | None = 0,
         base[0], base[1], 0.0))
         for size, (base, direction) in zip(sizes, canal_spine_frames(row, spec), strict=True)]
         for row, sizes in enumerate(spec.table_2, 1)]
-    return [placed(local, varix_position(k, spec), growth.canal_spines(k), spec)
+    return [(k, growth.canal_spines(k), local)
             for k in range(1, n + 1) if growth.canal_spines(k)
             for local in spines[(k - (n - rows) - 1) % rows]]
+
+
+def placed_canal_spines(local: list[tuple[int, float, Node]], spec: ShellSpec = DEFAULT
+                        ) -> list[Node]:
+    """The spines of :func:`local_canal_spines` placed by Eq. 8 under their varices."""
+    return [placed(s, varix_position(k, spec), size, spec) for k, size, s in local]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -754,9 +799,13 @@ def outer_shell(seed: int = 0, spec: ShellSpec = DEFAULT, textured: bool = True,
     ``parts``: the bumps, body and spines of earlier builds, taken where they read the same
     spec values (:mod:`blobtree.models.parts`)."""
     _check_int("seed", seed, 0, 2**63 - 1)
-    per_section, lumps = parts.part("bumps", _bumps, spec, seed, textured, age)
+    # each part in two steps: its pieces in their local frames (which read no spiral number,
+    # so a change of the spiral keeps them and their keys), then placed by Eq. 8
+    local = parts.part("local bumps", _local_bumps, spec, seed, age)
+    per_section, lumps = parts.part("bumps", _bumps, spec, seed, textured, local)
     body = parts.part("body", _body, spec, seed, textured, age, per_section)
-    spiny = parts.part("spiny", _spiny, spec, seed, textured, age)
+    local = parts.part("local spines", _local_spiny, spec, seed, textured, age)
+    spiny = parts.part("spiny", _spiny, spec, seed, textured, age, local)
     main = blend(body, *spiny) if spiny else body
     return super_blend(main, *lumps, n=spec.bump_blend_n) if lumps else main
 
@@ -773,11 +822,15 @@ def _look(spec: ShellSpec, seed: int, textured: bool) -> tuple[str, Mapping | No
     return look, _paper_textures(seed) if look == "paper" else None
 
 
-def _bumps(spec: ShellSpec, seed: int, textured: bool, age: float
+def _local_bumps(spec: ShellSpec, seed: int, age: float) -> list[tuple[int, float, Node]]:
+    """:func:`outer_shell`'s bumps in their local frames (:func:`local_bumps`)."""
+    return local_bumps(_streams(seed)[0], spec=spec, age=age)
+
+
+def _bumps(spec: ShellSpec, seed: int, textured: bool, local: list[tuple[int, float, Node]]
            ) -> tuple[list[list[Node]] | None, list[Node]]:
-    """:func:`outer_shell`'s bumps, painted: (per section, for the gradient join; or None) and
-    (the lumps the super-elliptic blend joins; or none)."""
-    rng = _streams(seed)[0]
+    """:func:`outer_shell`'s bumps, placed and painted: (per section, for the gradient join;
+    or None) and (the lumps the super-elliptic blend joins; or none)."""
     _, tex = _look(spec, seed, textured)
     bump_c = spec.colours[2]
 
@@ -786,9 +839,9 @@ def _bumps(spec: ShellSpec, seed: int, textured: bool, age: float
             b.color(bump_c)
 
     if spec.bump_join == "gradient":  # per section: none on section 0 (bumps() starts at 1)
-        return [[]] + [[paint(b) for b in bumps(rng, [k], spec, age)]
+        return [[]] + [[paint(b) for b in placed_bumps([x for x in local if x[0] == k], spec)]
                        for k in range(1, spec.sections)], []
-    return None, [paint(b) for b in bumps(rng, spec=spec, age=age)]
+    return None, [paint(b) for b in placed_bumps(local, spec)]
 
 
 def _body(spec: ShellSpec, seed: int, textured: bool, age: float,
@@ -803,15 +856,24 @@ def _body(spec: ShellSpec, seed: int, textured: bool, age: float,
                       period=spec.instances * spec.theta_s, lumps=per_section, age=age)
 
 
-def _spiny(spec: ShellSpec, seed: int, textured: bool, age: float) -> list[Node]:
-    """:func:`outer_shell`'s varices and canal spines, painted."""
-    spines = canal_spines(_streams(seed)[1], spec, age)
+def _local_spiny(spec: ShellSpec, seed: int, textured: bool, age: float) -> tuple[list, list]:
+    """:func:`outer_shell`'s varices (painted) and canal spines in their local frames."""
+    _, tex = _look(spec, seed, textured)
+    return (local_varices(spec, tex["varix_spine"] if tex else None, age),
+            local_canal_spines(_streams(seed)[1], spec, age))
+
+
+def _spiny(spec: ShellSpec, seed: int, textured: bool, age: float, local: tuple[list, list]
+           ) -> list[Node]:
+    """:func:`outer_shell`'s varices and canal spines, placed and painted."""
+    local_v, local_c = local
+    spines = placed_canal_spines(local_c, spec)
     _, tex = _look(spec, seed, textured)
     if tex:
         wrap = SHELL_TEXTURES["canal_spine"].wrap
-        return varices(spec, tex["varix_spine"], age) + [
+        return placed_varices(local_v, spec, age, True) + [
             s.texture(tex["canal_spine"], wrap=wrap) for s in spines]
-    return [v.color(spec.colours[1]) for v in varices(spec, age=age) + spines]
+    return [v.color(spec.colours[1]) for v in placed_varices(local_v, spec, age) + spines]
 
 
 def shell(spec: ShellSpec | Mapping | str | Path = "murex", seed: int = 0, inside: bool = True,
