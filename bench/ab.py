@@ -3,7 +3,8 @@ pinned to its own core, so both meet the same machine (clock, neighbours); the c
 round.  Timings of one process alone here drift by 10-20% between runs, more than most changes
 worth measuring; paired runs agree within a few percent.
 
-    python bench/ab.py BASE [NEW] [--model murex] [--size 256] [--rounds 3] [--task mesh|live]
+    python bench/ab.py BASE [NEW] [--model murex] [--size 256] [--rounds 3]
+                       [--task render|mesh|live|studio]
                        [--threads 1|all] [--best 1]
 
 BASE and NEW are git revisions (NEW defaults to the working tree); each is checked out into a
@@ -15,7 +16,8 @@ field at that mesh's vertices (one batch).
 ``--task live`` times ``bench/bench_live.py``'s changes of a spec (``--model``: a shipped spec)
 as the explorer's first picture at ``--size`` pixels, without shadows: the tree, program and
 framing (the parts ``LiveShell.timings`` reports; wall seconds) and the whole picture, each
-summed over the changes.
+summed over the changes; ``--task studio`` the explorer's sharp picture of the spec (the
+studio look) at ``--size`` pixels, without and with shadows.
 
 ``--threads all`` measures what one thread cannot see (parallel overheads): the two checkouts
 then run one after the other, alternating, each on all cores, and each round prints wall
@@ -98,10 +100,26 @@ for name, value in CHANGES:
     out[0] += min(times)[0]
     out[1] += min(times, key=lambda x: x[1])[1]
 print(*out)
+""", "studio": PRELUDE + """
+from blobtree.live import LiveShell
+from blobtree.models.spec import load_spec
+live = LiveShell(load_spec(sys.argv[2]))
+size = int(sys.argv[3])
+live.picture(32, 32)
+out = []
+for shadows in (False, True):
+    times = []
+    for _ in range(best):
+        start = clock()
+        live.picture(size, size, shadows=shadows)
+        times.append(clock() - start)
+    out.append(min(times))
+print(*out)
 """}
 #: What each task's two numbers are.
 MEASURES = {"render": ("no shadows", "shadows"), "mesh": ("polygonize", "field at vertices"),
-            "live": ("tree, program and framing", "first picture")}
+            "live": ("tree, program and framing", "first picture"),
+            "studio": ("no shadows", "shadows")}
 
 
 @contextlib.contextmanager

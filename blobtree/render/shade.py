@@ -284,10 +284,14 @@ STRETCH_MIN = 1000
 #: A packet's first stretch of shadow rays on the full program, in first candidate segments
 #: (each next stretch is twice as long).
 STRETCH = 4.0
+#: A shadow ray's smallest step grows with its distance t by SHADOW_STEP t tan(light radius):
+#: a feature thinner than that (a fraction of the area light's width seen from there) may be
+#: stepped over; the field's rise near it still darkens the penumbra.
+SHADOW_STEP = 1.0
 
 
 @kernel
-def _trace_stretches(prog, n, delta0, packet, st):
+def _trace_stretches(prog, n, delta0, packet, st, shadow_rel):
     """:func:`trace_packet` of the shadow rays in the ray table (from T to T_END; a ray whose
     T_END is 0 takes no part) on the full program, first candidate segment delta0: a long
     program (:data:`STRETCH_MIN`) is specialised to the box around the rays' next stretch, the
@@ -314,7 +318,7 @@ def _trace_stretches(prog, n, delta0, packet, st):
         if stretch < np.inf:
             ln = specialize(prog, lo, hi, out, work)
             run = (out[0][:ln], prog[1], out[1][:ln], out[2][:ln])
-        trace_packet(run, (SO, SD), n, (rays[T], rays[SPLIT]), (rays[EPS], 0.0),
+        trace_packet(run, (SO, SD), n, (rays[T], rays[SPLIT]), (rays[EPS], shadow_rel),
                      min(delta0, stretch), rays[OUT], False, (pk, ids, rows), st)
         for k in range(n):
             if rays[OUT, k] >= 0.0:
@@ -360,6 +364,7 @@ def _shade_packet(prog, local, n, view, packet, st):
     lights, lo, hi, shadows, look = view[1], view[2], view[3], view[7], view[10]
     shadow_eps, eps_rel = view[13], view[12]
     lprog, llo, lhi = local
+    shadow_rel = SHADOW_STEP * look[LIGHT_TAN]
     # a long program's shadow rays take programs of their own from the start (STRETCH_MIN)
     own = prog[0].shape[0] >= STRETCH_MIN
     at = _hits_program(prog, n, packet)
@@ -409,8 +414,8 @@ def _shade_packet(prog, local, n, view, packet, st):
                 rays[T, k], rays[T_END, k] = t0, min(t1, tb)
                 d_local = min(d_local, 0.05 * (tb - t0) + se)
         if shadows and not own:
-            trace_packet(lprog, (SO, SD), n, (rays[T], rays[T_END]), (rays[EPS], 0.0), d_local,
-                         rays[OUT], False, (pk, ids, rows), st)
+            trace_packet(lprog, (SO, SD), n, (rays[T], rays[T_END]), (rays[EPS], shadow_rel),
+                         d_local, rays[OUT], False, (pk, ids, rows), st)
         if shadows:
             for k in range(n):  # then on the full program, past the local box
                 if rays[OUT, k] >= 0.0:
@@ -421,7 +426,7 @@ def _shade_packet(prog, local, n, view, packet, st):
                     rays[T, k] = max(rays[T0, k], rays[SPLIT, k])
                     rays[T_END, k] = rays[T1, k]
                     d_full = min(d_full, 0.05 * (rays[T1, k] - rays[T, k]) + 2.0 * rays[EPS, k])
-            _trace_stretches(prog, n, d_full, packet, st)
+            _trace_stretches(prog, n, d_full, packet, st, shadow_rel)
         for k in range(n):
             if rays[REACHED, k] == 0.0 or (shadows and rays[OUT, k] >= 0.0):
                 continue
