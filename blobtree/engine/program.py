@@ -29,7 +29,19 @@ import numpy as np
 from .. import geometry as geo
 from ..fields import FALLOFFS
 from ..nodes.kinds import Operator, Paint, Primitive
-from ..nodes.layout import ARG, GRADIENT, OFFSET, OP, SHADE, SKIP, VALUE
+from ..nodes.layout import (
+    ARG,
+    FALLOFF,
+    FRAME_NORM,
+    GRADIENT,
+    MAP_NORM,
+    OFFSET,
+    OP,
+    RADIUS,
+    SHADE,
+    SKIP,
+    VALUE,
+)
 from ..nodes.node import ISO, REGISTRY, Node
 from ..nodes.warp import Warp
 from ..runtime.threads import parallel_for
@@ -400,17 +412,18 @@ class _Emitter:
 
     def primitive(self, node: Primitive, M: np.ndarray, look: int) -> geo.Box:
         """A primitive: its header (the frame->local map, R, falloff id, the map's norm; the
-        map and norm filled in by :meth:`program`), then its own parameters."""
+        map and norm filled in by :meth:`frame_maps`), then its own parameters."""
         box = node.box(M)
-        header = [0.0] * 12 + [node.field_radius, FALLOFFS[node.falloff], 0.0]
+        header = [0.0] * MAP_NORM + [0.0]
+        header[RADIUS], header[FALLOFF] = node.field_radius, FALLOFFS[node.falloff]
         i = self.add(opcode(node), header + node.pack(), box, count=look)
-        self.framed[i] = (M, node.lipschitz(), 14)
+        self.framed[i] = (M, node.lipschitz(), MAP_NORM)
         return box
 
     def warp(self, node: Warp, M: np.ndarray, look: int) -> geo.Box:
         box = node.box(M)
-        push = self.add(OP_PUSHPT, [0.0] * 13, box)  # (the map and its norm: see primitive)
-        self.framed[push] = (M, node.lipschitz(), 12)
+        push = self.add(OP_PUSHPT, [0.0] * (FRAME_NORM + 1), box)  # (map, norm: frame_maps)
+        self.framed[push] = (M, node.lipschitz(), FRAME_NORM)
         w = self.add(opcode(node), [*node.canonical.reshape(-1), *node.pack()], node.own_box,
                      lip=node.stretch)
         self.emit(node.child, geo.IDENTITY, look)
