@@ -1,8 +1,8 @@
 """Where a render's time goes, kernel by kernel: Linux ``perf`` samples of the render alone, with
 numba's compiled functions named (perf cannot name JIT code by itself).
 
-The kernels are compiled afresh into a temporary numba cache (a minute or two), since only
-freshly compiled code still carries its functions' names; their addresses go to the
+The kernels are compiled afresh into a temporary numba cache (a minute or two); the names,
+addresses and sizes of their functions (from each library's object code) go to the
 ``/tmp/perf-PID.map`` file perf reads.  Then ``perf record`` samples this process while it
 renders, and the top functions are printed (a function's share includes what LLVM inlined into
 it).  Needs ``perf`` (Debian package ``linux-perf``).
@@ -41,26 +41,50 @@ def _short(name: str) -> str:
     return ".".join(parts[-2:]) if parts else name[:60]
 
 
+def _symbols(library) -> dict[str, int]:
+    """The functions in a numba library's object code and their sizes in bytes (``nm -S``);
+    empty if the object code is not at hand."""
+    try:
+        obj = library._get_compiled_object()
+    except Exception:  # (a library without its object code)
+        return {}
+    with tempfile.NamedTemporaryFile(suffix=".o") as f:
+        f.write(obj)
+        f.flush()
+        listing = subprocess.run(["nm", "-S", "--defined-only", f.name], capture_output=True,
+                                 text=True).stdout
+    out = {}
+    for line in listing.splitlines():
+        parts = line.split(maxsplit=3)
+        if len(parts) == 4 and parts[2] in "Tt":
+            out[parts[3]] = int(parts[1], 16)
+    return out
+
+
 def write_perf_map() -> int:
-    """Write the address and name of every compiled function of every numba dispatcher in this
-    process to /tmp/perf-PID.map (each function's size taken up to the next one); return how
-    many."""
+    """Write the address, size and name of every function compiled for this process's numba
+    dispatchers and linked kernels (``runtime.linked``, compiled here or loaded from the cache
+    a partner process filled) to /tmp/perf-PID.map; return how many.  Names and sizes come
+    from the object code's symbol table: a function taken up to the next named one instead
+    bills code that has no name here to its neighbour."""
     from numba.core.registry import CPUDispatcher
+
+    from blobtree.runtime.linked import LINKED
 
     libraries = {id(c.library): c.library for obj in gc.get_objects()
                  if isinstance(obj, CPUDispatcher) for c in obj.overloads.values()}
-    names = {}
+    libraries.update({id(k._cfunc._library): k._cfunc._library for k in LINKED
+                      if k._cfunc is not None})
+    entries = {}
     for lib in libraries.values():
-        for fn in lib._final_module.functions:  # (freshly compiled code only)
-            if not fn.is_declaration:
-                address = lib.get_pointer_to_function(fn.name)
-                if address:
-                    names[address] = _short(fn.name)
-    addresses = sorted(names)
+        for name, size in _symbols(lib).items():
+            address = lib.get_pointer_to_function(name)
+            if address and size:
+                entries[address] = (size, _short(name))
     with open(f"/tmp/perf-{os.getpid()}.map", "w") as f:
-        for a, b in zip(addresses, addresses[1:] + [addresses[-1] + 4096], strict=True):
-            f.write(f"{a:x} {min(b - a, 1 << 20):x} {names[a]}\n")
-    return len(addresses)
+        for address, (size, name) in sorted(entries.items()):
+            f.write(f"{address:x} {size:x} {name}\n")
+    return len(entries)
 
 
 def main() -> None:
