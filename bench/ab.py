@@ -47,6 +47,18 @@ clock = time.process_time if int(sys.argv[1]) >= 0 else time.perf_counter
 best = int(sys.argv[4])
 from blobtree.cli.scenes import resolve_scene
 """
+#: Times ``picture(shadows)`` (defined by the workload before it) without and with shadows.
+SHADOWS = """
+out = []
+for shadows in (False, True):
+    times = []
+    for _ in range(best):
+        start = clock()
+        picture(shadows)
+        times.append(clock() - start)
+    out.append(min(times))
+print(*out)
+"""
 WORKLOADS = {"render": PRELUDE + """
 from blobtree.render import render
 from blobtree.render.camera import seen_camera
@@ -55,16 +67,8 @@ prog = tree.program()
 size = int(sys.argv[3])
 cam = seen_camera(tree, prog, size, size)
 render(prog, 32, 32, camera=cam)
-out = []
-for shadows in (False, True):
-    times = []
-    for _ in range(best):
-        start = clock()
-        render(prog, size, size, camera=cam, shadows=shadows)
-        times.append(clock() - start)
-    out.append(min(times))
-print(*out)
-""", "mesh": PRELUDE + """
+picture = lambda shadows: render(prog, size, size, camera=cam, shadows=shadows)
+""" + SHADOWS, "mesh": PRELUDE + """
 import numpy as np
 from blobtree.mesh.polygonizer import polygonize
 prog = resolve_scene(sys.argv[2]).program()
@@ -106,16 +110,8 @@ from blobtree.models.spec import load_spec
 live = LiveShell(load_spec(sys.argv[2]))
 size = int(sys.argv[3])
 live.picture(32, 32)
-out = []
-for shadows in (False, True):
-    times = []
-    for _ in range(best):
-        start = clock()
-        live.picture(size, size, shadows=shadows)
-        times.append(clock() - start)
-    out.append(min(times))
-print(*out)
-"""}
+picture = lambda shadows: live.picture(size, size, shadows=shadows)
+""" + SHADOWS}
 #: What each task's two numbers are.
 MEASURES = {"render": ("no shadows", "shadows"), "mesh": ("polygonize", "field at vertices"),
             "live": ("tree, program and framing", "first picture"),
