@@ -129,12 +129,30 @@ class LiveShell:
         """The shell seen from ``view``: an (height, width, 3) uint8 image; ``options`` go to
         :func:`blobtree.render.render` (``shadows``, ``look``, ``samples``, ``background``)."""
         self.timings = {}
-        built = self._built((self.spec, self.seed))  # (one spec, though another thread sets)
-        camera = self._camera(built, width, height, view)
-        t0 = time.perf_counter()
-        img = render(built.prog, width, height, camera=camera, **options)
+        with _collector_held():
+            built = self._built((self.spec, self.seed))  # (one spec, though another thread sets)
+            camera = self._camera(built, width, height, view)
+            t0 = time.perf_counter()
+            img = render(built.prog, width, height, camera=camera, **options)
         self.timings["render"] = time.perf_counter() - t0
         return img
+
+
+@contextlib.contextmanager
+def _collector_held() -> Iterator[None]:
+    """Python's cycle collector held off while a picture is made: a build makes tens of
+    thousands of objects, and the collections they start walk them (a few milliseconds each)
+    and, every few builds, every object kept (0.11 s with the Murex's eight builds kept: one
+    first picture in twelve took one); after the picture the collector runs as it would have
+    (the explorer also collects fully while idle).  Another thread's picture may end the hold
+    early: collections then run as usual."""
+    held = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if held:
+            gc.enable()
 
 
 # ----- the notebook explorer --------------------------------------------------------------------
