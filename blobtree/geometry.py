@@ -83,11 +83,10 @@ IDENTITY = affine(np.eye(3))
 
 
 def compose(outer: np.ndarray, inner: np.ndarray) -> np.ndarray:
-    """The affine map x -> outer(inner(x)): [A_o A_i | A_o b_i + b_o]."""
-    a = outer[:, :3]
-    m = np.empty((3, 4))
-    m[:, :3] = a @ inner[:, :3]
-    m[:, 3] = a @ inner[:, 3] + outer[:, 3]
+    """The affine map x -> outer(inner(x)): [A_o A_i | A_o b_i + b_o] (one product of
+    A_o with [A_i | b_i], then b_o added: half the time of two)."""
+    m = outer[:, :3] @ inner
+    m[:, 3] += outer[:, 3]
     return m
 
 

@@ -414,9 +414,7 @@ class _Emitter:
         """A primitive: its header (the frame->local map, R, falloff id, the map's norm; the
         map and norm filled in by :meth:`frame_maps`), then its own parameters."""
         box = node.box(M)
-        header = [0.0] * MAP_NORM + [0.0]
-        header[RADIUS], header[FALLOFF] = node.field_radius, FALLOFFS[node.falloff]
-        i = self.add(opcode(node), header + node.pack(), box, count=look)
+        i = self.add(opcode(node), _own_params(node), box, count=look)
         self.framed[i] = (M, node.lipschitz(), MAP_NORM)
         return box
 
@@ -465,6 +463,18 @@ class _Emitter:
             depth=_stack_depth(code),
             bounds=root.bounds(),
         )
+
+
+def _own_params(node: Primitive) -> list[float]:
+    """A primitive's parameters in the program, its header's frame map and norm left 0 (they
+    depend on the frame: :meth:`_Emitter.frame_maps`); kept on the node, which is a value (a
+    change of the spiral places the same pieces again)."""
+    params = node.__dict__.get("_own_params")
+    if params is None:
+        header = [0.0] * MAP_NORM + [0.0]
+        header[RADIUS], header[FALLOFF] = node.field_radius, FALLOFFS[node.falloff]
+        params = node.__dict__["_own_params"] = [float(v) for v in header + node.pack()]
+    return params
 
 
 def _box6(box: geo.Box | None) -> np.ndarray:
