@@ -501,22 +501,23 @@ def _stack_depth(code: np.ndarray) -> int:
 def expanded_size(tree: Node, nodes: list[Node] | None = None) -> int:
     """About how many instructions ``tree`` compiles to, counted over its distinct nodes
     (``nodes``: ``tree.unique()`` if already listed; a shared subtree counts at each of its
-    places, as the program repeats it)."""
-    size: dict[int, int] = {}
-
+    places, as the program repeats it).  Each node keeps its count (a value of its subtree), so
+    a tree changed in one part counts only the nodes the change made."""
     def size_of(node: Node) -> int:  # a program child may be a child moved by new affine nodes
-        while id(node) not in size and node.KIND == "affine":
+        while "_expanded" not in node.__dict__ and node.KIND == "affine":
             node = node.child
-        return size[id(node)]
+        return node.__dict__["_expanded"]
 
     for node in tree.unique() if nodes is None else nodes:
+        if "_expanded" in node.__dict__:
+            continue
         kids = node.program_children() if node.KIND == "operator" else node.children
         inner = sum(size_of(c) for c in kids)
         own = {"affine": 0, "primitive": 1, "paint": 2, "warp": 3}.get(node.KIND, 2)
         if node.KIND == "operator" and getattr(node, "ASSOCIATIVE", False):
             own += 2 * max(len(kids) // GROUP, 1)
-        size[id(node)] = own + inner
-    return size[id(tree)]
+        node.__dict__["_expanded"] = own + inner
+    return size_of(tree)
 
 
 def _split(boxes: list[geo.Box]) -> tuple[np.ndarray, np.ndarray]:
