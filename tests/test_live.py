@@ -178,6 +178,31 @@ def test_a_program_compiled_with_reuse_is_the_one_compiled_afresh():
         assert reused.depth == fresh.depth and len(reuse.spans) > 10
 
 
+def test_what_a_change_compiles_again_does_not_depend_on_the_changes_before(monkeypatch):
+    """A part copied whole by one compile is still there in parts for the next: after a change
+    of the whorls (the varices copied whole), a change of the varices' spines compiles again
+    what it compiles right after the whorls' change was compiled afresh."""
+    from blobtree.engine import program
+    from blobtree.engine.program import Reuse, compile_tree
+
+    made = []
+    emit_new = program._Emitter.emit_new
+    monkeypatch.setattr(program._Emitter, "emit_new",
+                        lambda self, node, M, look: made.append(node) or emit_new(self, node, M,
+                                                                                   look))
+    whorls = with_control(SMALL, "whorls.point_radius", 1.3)
+    both = with_control(whorls, "varices.spine_length", 1.0)
+    counts = []
+    for history in ((SMALL, whorls), (whorls,)):
+        reuse = Reuse()
+        for spec in history:
+            compile_tree(bt.models.shell(spec), reuse)
+        made.clear()
+        compile_tree(bt.models.shell(both), reuse)
+        counts.append(len(made))
+    assert counts[0] == counts[1] < 0.5 * len(compile_tree(bt.models.shell(both)).code)
+
+
 def test_boxes_handed_on_do_not_grow_with_the_changes():
     """A spiral changed again and again puts every subtree in new frames: the boxes each compile
     hands to the next stay within (1 + HANDED_BOXES) times what one compile makes, not one more

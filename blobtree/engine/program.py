@@ -246,6 +246,26 @@ class Reuse:
         self.boxes: dict[str, dict[bytes, geo.Box]] = {}
         #: (children's keys, frame) -> the two groups :func:`_split` made of them
         self.splits: dict[tuple[tuple[str, ...], bytes], tuple[np.ndarray, np.ndarray]] = {}
+        #: the spans in code order, and their code starts (:meth:`inside`)
+        self._ordered: list[tuple[tuple[str, bytes, int], tuple]] = []
+        self._starts = np.zeros(0, dtype=np.int64)
+
+    def hold(self, program: Program, images: dict[str, int],
+             spans: dict[tuple[str, bytes, int], tuple[int, int, int, int, geo.Box]]) -> None:
+        """Hold a compiled program, its images' places and its subtrees' spans."""
+        self.program, self.images, self.spans = program, images, spans
+        self._ordered = sorted(spans.items(), key=lambda item: item[1][0])
+        self._starts = np.array([span[0] for _, span in self._ordered], dtype=np.int64)
+
+    def inside(self, c0: int, c1: int, dc: int, dp: int
+               ) -> dict[tuple[str, bytes, int], tuple[int, int, int, int, geo.Box]]:
+        """The spans of the subtrees within instructions c0:c1 (a subtree's instructions are
+        one run, inside any run that holds its first), moved by dc instructions and dp
+        parameters: where they lie once :meth:`_Emitter.copy` has copied that run, so that a
+        subtree copied whole in one compile still has its parts to copy in the next."""
+        i, j = np.searchsorted(self._starts, (c0, c1))
+        return {key: (a + dc, b + dc, q0 + dp, q1 + dp, box)
+                for key, (a, b, q0, q1, box) in self._ordered[i:j]}
 
 
 class _Emitter:
@@ -326,9 +346,11 @@ class _Emitter:
         """Copy instructions c0:c1 and parameters p0:p1 (absolute) of the reused program to
         the end, moved as :meth:`repeat` moves them (the images lie where they lay)."""
         prog = self.reuse.program
+        dc, dp = len(self.code) - c0, self.base + len(self.params) - p0
+        self.spans.update(self.reuse.inside(c0, c1, dc, dp))
         rows = prog.code[c0:c1].copy()
-        rows[:, OFFSET] += self.base + len(self.params) - p0
-        rows[:, SKIP] += len(self.code) - c0
+        rows[:, OFFSET] += dp
+        rows[:, SKIP] += dc
         self.code.extend(rows.tolist())
         self.params.extend(prog.params[p0:p1].tolist())
         self.boxes.extend(prog.boxes[c0:c1])
@@ -586,7 +608,7 @@ def compile_tree(tree: Node, reuse: Reuse | None = None) -> Program:
     em.emit(_value_root(tree, nodes), geo.IDENTITY)
     prog = em.program(tree)
     if reuse is not None:
-        reuse.program, reuse.images, reuse.spans = prog, dict(em.images), em.spans
+        reuse.hold(prog, dict(em.images), em.spans)
         reuse.boxes = {node.key: memo for node in nodes
                        if len(memo := node.box_memo()) <= HANDED_BOXES}
         reuse.splits = em.splits
