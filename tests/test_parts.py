@@ -12,7 +12,7 @@ import pytest
 from blobtree.checks import Choice, Integer
 from blobtree.live import _controls_of, slider_range, with_control
 from blobtree.models import parts
-from blobtree.models.murex import shell
+from blobtree.models.murex import local_varices, shell
 from blobtree.models.spec import SHELLS, Flag, Numbers
 
 MUREX = SHELLS["murex"]
@@ -89,6 +89,21 @@ def test_a_spiral_change_keeps_the_pieces_in_their_local_frames():
     pieces = sum(1 for n in after.walk() if n.TYPE in ("texture", "color")
                  and n.child.TYPE == "rotate" and n.child.axis == "y")
     assert len(shared) >= pieces > 300
+
+
+def test_a_change_of_the_canal_keeps_the_varices():
+    """The varices and the canal spines are parts apart: tilting the canal builds its spines
+    again, not the varices (their spines are the very nodes of the build before)."""
+    kept = parts.Parts(2)
+    before = shell(MUREX, 0, parts=kept)
+    tilted = with_control(MUREX, "canal.tilt", MUREX.canal_tilt + 5.0)
+    after = shell(tilted, 0, parts=kept)
+    assert after.key == shell(tilted, 0).key
+    bends = {id(n) for n in before.walk() if n.TYPE == "bend"}
+    kept_bends = {n.key for n in after.walk() if id(n) in bends}
+    varix_bends = {n.key for _, _, v in local_varices(MUREX) for n in v.walk()
+                   if n.TYPE == "bend"}
+    assert kept_bends == varix_bends and len(varix_bends) > 10
 
 
 def test_a_part_is_kept_until_a_value_it_read_changes():

@@ -804,7 +804,8 @@ def outer_shell(seed: int = 0, spec: ShellSpec = DEFAULT, textured: bool = True,
     local = parts.part("local bumps", _local_bumps, spec, seed, age)
     per_section, lumps = parts.part("bumps", _bumps, spec, seed, textured, local)
     body = parts.part("body", _body, spec, seed, textured, age, per_section)
-    local = parts.part("local spines", _local_spiny, spec, seed, textured, age)
+    local = (parts.part("local varices", _local_varices, spec, seed, textured, age),
+             parts.part("local canal spines", _local_canal_spines, spec, seed, age))
     spiny = parts.part("spiny", _spiny, spec, seed, textured, age, local)
     main = blend(body, *spiny) if spiny else body
     return super_blend(main, *lumps, n=spec.bump_blend_n) if lumps else main
@@ -856,11 +857,16 @@ def _body(spec: ShellSpec, seed: int, textured: bool, age: float,
                       period=spec.instances * spec.theta_s, lumps=per_section, age=age)
 
 
-def _local_spiny(spec: ShellSpec, seed: int, textured: bool, age: float) -> tuple[list, list]:
-    """:func:`outer_shell`'s varices (painted) and canal spines in their local frames."""
+def _local_varices(spec: ShellSpec, seed: int, textured: bool, age: float) -> list:
+    """:func:`outer_shell`'s varices (painted) in their local frames."""
     _, tex = _look(spec, seed, textured)
-    return (local_varices(spec, tex["varix_spine"] if tex else None, age),
-            local_canal_spines(_streams(seed)[1], spec, age))
+    return local_varices(spec, tex["varix_spine"] if tex else None, age)
+
+
+def _local_canal_spines(spec: ShellSpec, seed: int, age: float) -> list:
+    """:func:`outer_shell`'s canal spines in their local frames (apart from the varices: a
+    change of the canal builds only these again)."""
+    return local_canal_spines(_streams(seed)[1], spec, age)
 
 
 def _spiny(spec: ShellSpec, seed: int, textured: bool, age: float, local: tuple[list, list]
