@@ -22,7 +22,7 @@ associative), so a point meets O(log n) boxes instead of n.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cached_property, partial
 
 import numpy as np
 
@@ -231,6 +231,12 @@ class Program:
 #: gather a frame a compile; past this it starts afresh, so the boxes kept stay bounded.
 HANDED_BOXES = 2
 
+#: (node key, frame, look) -> (code start, code end, params start, params end, box): where a
+#: compile put each subtree
+Spans = dict[tuple[str, bytes, int], tuple[int, int, int, int, geo.Box]]
+#: (children's keys, frame) -> the two groups :func:`_split` made of them
+Splits = dict[tuple[tuple[str, ...], bytes], tuple[np.ndarray, np.ndarray]]
+
 
 class Reuse:
     """The instructions of a tree compiled before, by subtree, for :func:`compile_tree` to copy
@@ -240,32 +246,34 @@ class Reuse:
     def __init__(self) -> None:
         self.program: Program | None = None
         self.images: dict[str, int] = {}
-        #: (node key, frame, look) -> (code start, code end, params start, params end, box)
-        self.spans: dict[tuple[str, bytes, int], tuple[int, int, int, int, geo.Box]] = {}
+        self.spans: Spans = {}
         #: node key -> its boxes by frame (``Node.box``'s memo), handed to equal nodes
         self.boxes: dict[str, dict[bytes, geo.Box]] = {}
-        #: (children's keys, frame) -> the two groups :func:`_split` made of them
-        self.splits: dict[tuple[tuple[str, ...], bytes], tuple[np.ndarray, np.ndarray]] = {}
-        #: the spans in code order, and their code starts (:meth:`inside`)
-        self._ordered: list[tuple[tuple[str, bytes, int], tuple]] = []
+        self.splits: Splits = {}
+        #: the spans' keys in code order, and their code starts (:meth:`inside`)
+        self._ordered: list[tuple[str, bytes, int]] = []
         self._starts = np.zeros(0, dtype=np.int64)
 
     def hold(self, program: Program, images: dict[str, int],
-             spans: dict[tuple[str, bytes, int], tuple[int, int, int, int, geo.Box]]) -> None:
-        """Hold a compiled program, its images' places and its subtrees' spans."""
+             spans: Spans, boxes: dict[str, dict[bytes, geo.Box]], splits: Splits) -> None:
+        """Hold a compiled program, its images' places, its subtrees' spans, its nodes' boxes
+        and its groups (see the attributes)."""
         self.program, self.images, self.spans = program, images, spans
-        self._ordered = sorted(spans.items(), key=lambda item: item[1][0])
-        self._starts = np.array([span[0] for _, span in self._ordered], dtype=np.int64)
+        self.boxes, self.splits = boxes, splits
+        self._ordered = sorted(spans, key=lambda key: spans[key][0])
+        self._starts = np.array([spans[key][0] for key in self._ordered], dtype=np.int64)
 
-    def inside(self, c0: int, c1: int, dc: int, dp: int
-               ) -> dict[tuple[str, bytes, int], tuple[int, int, int, int, geo.Box]]:
+    def inside(self, c0: int, c1: int, dc: int, dp: int) -> Spans:
         """The spans of the subtrees within instructions c0:c1 (a subtree's instructions are
         one run, inside any run that holds its first), moved by dc instructions and dp
         parameters: where they lie once :meth:`_Emitter.copy` has copied that run, so that a
         subtree copied whole in one compile still has its parts to copy in the next."""
         i, j = np.searchsorted(self._starts, (c0, c1))
-        return {key: (a + dc, b + dc, q0 + dp, q1 + dp, box)
-                for key, (a, b, q0, q1, box) in self._ordered[i:j]}
+        moved = {}
+        for key in self._ordered[i:j]:
+            a, b, q0, q1, box = self.spans[key]
+            moved[key] = (a + dc, b + dc, q0 + dp, q1 + dp, box)
+        return moved
 
 
 class _Emitter:
@@ -274,9 +282,9 @@ class _Emitter:
     def __init__(self) -> None:
         self.reuse: Reuse | None = None
         #: this compile's subtrees by key (see :class:`Reuse`), when there is a Reuse to keep
-        self.spans: dict[tuple[str, bytes, int], tuple[int, int, int, int, geo.Box]] = {}
+        self.spans: Spans = {}
         #: this compile's groups (see :class:`Reuse`)
-        self.splits: dict[tuple[tuple[str, ...], bytes], tuple[np.ndarray, np.ndarray]] = {}
+        self.splits: Splits = {}
         self.code: list[list[int]] = []
         #: the instructions' parameters; the images come before them in ``params``
         self.params: list[float] = []
@@ -491,12 +499,12 @@ def _own_params(node: Primitive) -> list[float]:
     """A primitive's parameters in the program, its header's frame map and norm left 0 (they
     depend on the frame: :meth:`_Emitter.frame_maps`); kept on the node, which is a value (a
     change of the spiral places the same pieces again)."""
-    params = node.__dict__.get("_own_params")
-    if params is None:
+    def make() -> list[float]:
         header = [0.0] * MAP_NORM + [0.0]
         header[RADIUS], header[FALLOFF] = node.field_radius, FALLOFFS[node.falloff]
-        params = node.__dict__["_own_params"] = [float(v) for v in header + node.pack()]
-    return params
+        return [float(v) for v in header + node.pack()]
+
+    return node.memo("_own_params", make)
 
 
 def _box6(box: geo.Box | None) -> np.ndarray:
@@ -526,19 +534,20 @@ def expanded_size(tree: Node, nodes: list[Node] | None = None) -> int:
     places, as the program repeats it).  Each node keeps its count (a value of its subtree), so
     a tree changed in one part counts only the nodes the change made."""
     def size_of(node: Node) -> int:  # a program child may be a child moved by new affine nodes
-        while "_expanded" not in node.__dict__ and node.KIND == "affine":
+        while (size := node.memo("_expanded")) is None and node.KIND == "affine":
             node = node.child
-        return node.__dict__["_expanded"]
+        return size
 
-    for node in tree.unique() if nodes is None else nodes:
-        if "_expanded" in node.__dict__:
-            continue
+    def make(node: Node) -> int:  # (its children's counts are kept: they come before it)
         kids = node.program_children() if node.KIND == "operator" else node.children
-        inner = sum(size_of(c) for c in kids)
         own = {"affine": 0, "primitive": 1, "paint": 2, "warp": 3}.get(node.KIND, 2)
         if node.KIND == "operator" and getattr(node, "ASSOCIATIVE", False):
             own += 2 * max(len(kids) // GROUP, 1)
-        node.__dict__["_expanded"] = own + inner
+        return own + sum(size_of(c) for c in kids)
+
+    for node in tree.unique() if nodes is None else nodes:
+        if node.memo("_expanded") is None:
+            node.memo("_expanded", partial(make, node))
     return size_of(tree)
 
 
@@ -608,10 +617,8 @@ def compile_tree(tree: Node, reuse: Reuse | None = None) -> Program:
     em.emit(_value_root(tree, nodes), geo.IDENTITY)
     prog = em.program(tree)
     if reuse is not None:
-        reuse.hold(prog, dict(em.images), em.spans)
-        reuse.boxes = {node.key: memo for node in nodes
-                       if len(memo := node.box_memo()) <= HANDED_BOXES}
-        reuse.splits = em.splits
+        boxes = {node.key: memo for node in nodes if len(memo := node.box_memo()) <= HANDED_BOXES}
+        reuse.hold(prog, dict(em.images), em.spans, boxes, em.splits)
     return prog
 
 

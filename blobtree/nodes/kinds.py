@@ -181,7 +181,7 @@ class Affine(Unary):
     def framed(self, L: np.ndarray) -> np.ndarray:
         """The child's frame seen through L (this node -> frame): ``compose(L, matrix)``, read-
         only, computed once per frame (boxes and the compiler both ask for it)."""
-        memo = self.__dict__.setdefault("_framed", {})
+        memo = self.memo("_framed", dict)
         key = L.tobytes()
         if key not in memo:
             memo[key] = geo.compose(L, self.matrix)

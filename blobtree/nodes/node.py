@@ -347,10 +347,21 @@ class Node:
         """A global bound on ``|grad f|``."""
         raise NotImplementedError
 
+    def memo(self, name: str, make: Callable[[], Any] | None = None) -> Any:
+        """A value of this node's subtree kept on the node under ``name``: computed by ``make``
+        the first time (a node is a value: what its subtree gives never changes); None if it
+        is not kept and there is no ``make``."""
+        kept = self.__dict__
+        if name not in kept:
+            if make is None:
+                return None
+            kept[name] = make()
+        return kept[name]
+
     def box_memo(self, known: dict[bytes, geo.Box] | None = None) -> dict[bytes, geo.Box]:
         """The boxes :meth:`box` computed, by frame; ``known``: a structurally equal node's
         (the same boxes), to start from if this node has none yet."""
-        return self.__dict__.setdefault("_box_memo", {} if known is None else known)
+        return self.memo("_box_memo", lambda: {} if known is None else known)
 
     def box(self, L: np.ndarray) -> geo.Box:
         """``_box``, computed once per frame (a shared subtree is not walked again)."""
@@ -365,9 +376,7 @@ class Node:
 
     def lipschitz(self) -> float:
         """A global bound on ``|grad f|`` (computed once)."""
-        if "_lipschitz_memo" not in self.__dict__:
-            self.__dict__["_lipschitz_memo"] = float(self._lipschitz())
-        return self.__dict__["_lipschitz_memo"]
+        return self.memo("_lipschitz_memo", lambda: float(self._lipschitz()))
 
     # ----- evaluation -------------------------------------------------------------------------
     def bounds(self) -> geo.Box:
