@@ -14,7 +14,8 @@ without and with shadows; for ``--task mesh`` ``polygonize`` at resolution ``--s
 field at that mesh's vertices (one batch).
 
 ``--task live`` times ``bench/bench_live.py``'s changes of a spec (``--model``: a shipped spec)
-as the explorer's first picture at ``--size`` pixels, without shadows: the tree, program and
+as the explorer's first picture at ``--size`` pixels (``live.DRAFT`` where the checkout has
+it, else without shadows): the tree, program and
 framing (the parts ``LiveShell.timings`` reports; wall seconds) and the whole picture, each
 summed over the changes; ``--task studio`` the explorer's sharp picture of the spec (the
 studio look) at ``--size`` pixels, without and with shadows.
@@ -86,19 +87,21 @@ for _ in range(best):
 print(min(out[0]), min(out[1]))
 """, "live": PRELUDE + """
 from bench.bench_live import CHANGES
+import blobtree.live
 from blobtree.live import LiveShell, with_control
 from blobtree.models.spec import load_spec
 base = load_spec(sys.argv[2])
 size = int(sys.argv[3])
 live = LiveShell(base)
-live.picture(size, size, shadows=False)
+draft = getattr(blobtree.live, "DRAFT", {"shadows": False})
+live.picture(size, size, **draft)
 out = [0.0, 0.0]
 for name, value in CHANGES:
     times = []
     for r in range(best):  # a new value each run: nothing kept from the run before
         live.set(with_control(base, name, value * (1.0 + 0.001 * r)))
         start = clock()
-        live.picture(size, size, shadows=False)
+        live.picture(size, size, **draft)
         t = live.timings
         times.append((t["tree"] + t["program"] + t["framing"], clock() - start))
     out[0] += min(times)[0]

@@ -4,13 +4,13 @@
 
 Warm (the kernels loaded, one picture drawn first), for each change below, the best of
 ``--rounds`` of each column on its own (the rounds' noise differs by part): the parts of the
-first picture (``--coarse`` pixels square, no shadow rays, as the explorer draws while a
-control moves): building the tree, compiling its program, framing it (the inside points the
-camera fits), rendering (tracing, with the per-tile specialising of the program to each tile's
-frustum inside it); then the studio pictures (shadows) the explorer draws next, at half
-``--size`` and at ``--size`` pixels, from the same tree.  A turn of the view only renders.  The
-targets of docs/live.md: the first picture within 0.3 s of a change, the studio picture within
-1.5 s.
+first picture (``--coarse`` pixels square, the draft the explorer draws while a control moves:
+``live.DRAFT``, no shadow rays, a whole pixel as a camera ray's smallest step): building the
+tree, compiling its program, framing it (the inside points the camera fits), rendering
+(tracing, with the per-tile specialising of the program to each tile's frustum inside it);
+then the studio pictures (shadows) the explorer draws next, at half ``--size`` and at
+``--size`` pixels, from the same tree.  A turn of the view only renders.  The targets of
+docs/live.md: the first picture within 0.3 s of a change, the studio picture within 1.5 s.
 
 Each change starts from the base spec, and its rounds follow one another (the same control
 moved again); ``--in-turn`` moves the controls one after another instead, each change on top of
@@ -23,7 +23,7 @@ import argparse
 import platform
 import time
 
-from blobtree.live import LiveShell, View, with_control
+from blobtree.live import DRAFT, LiveShell, View, with_control
 from blobtree.models.spec import load_spec
 
 #: The changes timed: a control and its new value (each builds another tree).
@@ -54,10 +54,10 @@ def main() -> None:
     args = ap.parse_args()
     base = load_spec(args.spec)
     live = LiveShell(base)
-    live.picture(args.coarse, args.coarse, shadows=False)  # warm: kernels, caches
+    live.picture(args.coarse, args.coarse, **DRAFT)  # warm: kernels, caches
     live.picture(args.size, args.size)
-    print(f"{cpu_name()}; {args.spec}; first picture {args.coarse}x{args.coarse} without "
-          f"shadows, studio {args.size}x{args.size}; each column the best of {args.rounds}, "
+    print(f"{cpu_name()}; {args.spec}; first picture {args.coarse}x{args.coarse} (draft: "
+          f"{DRAFT}), studio {args.size}x{args.size}; each column the best of {args.rounds}, "
           "seconds")
     print(f"{'change':<28}{'tree':>7}{'program':>9}{'framing':>9}{'render':>8}{'first':>8}"
           f"{'half':>8}{'studio':>8}{'total':>8}")
@@ -70,7 +70,7 @@ def main() -> None:
         # a value new each round, so nothing is reused from a round before
         spec = with_control(spec if args.in_turn else base, name, value * (1.0 + 0.001 * r))
         live.set(spec)
-        live.picture(args.coarse, args.coarse, shadows=False)
+        live.picture(args.coarse, args.coarse, **DRAFT)
         t = dict(live.timings, first=sum(live.timings.values()))
         live.picture(args.size // 2, args.size // 2)
         t["half"] = live.timings["render"]
@@ -84,11 +84,11 @@ def main() -> None:
               f"{b['framing']:>9.3f}{b['render']:>8.3f}{b['first']:>8.3f}{b['half']:>8.3f}"
               f"{b['studio']:>8.3f}{b['total']:>8.3f}")
     live.set(base)
-    live.picture(args.coarse, args.coarse, shadows=False)  # built again: turns only render
-    for label, shadows in (("turn 30 (first)", False), ("turn 30 (studio)", True)):
-        size = args.size if shadows else args.coarse
+    live.picture(args.coarse, args.coarse, **DRAFT)  # built again: turns only render
+    for label, size, options in (("turn 30 (first)", args.coarse, DRAFT),
+                                 ("turn 30 (studio)", args.size, {})):
         start = time.perf_counter()
-        live.picture(size, size, View(turn=30.0), shadows=shadows)
+        live.picture(size, size, View(turn=30.0), **options)
         print(f"{label:<28}{'':>33}{time.perf_counter() - start:>8.3f}")
     start = time.perf_counter()
     live.picture(args.size, args.size, shadows=False)

@@ -166,6 +166,8 @@ def test_paper_look_is_the_plain_default_settings():
     (dict(light_radius=45.0), "light_radius"),
     (dict(sky=1.5), "sky"),
     (dict(occlusion_radius=0.0), "occlusion_radius"),
+    (dict(step=0.0), "step"),
+    (dict(step=9.0), "step"),
 ])
 def test_bad_look_values_are_refused_by_name(kw, words):
     with pytest.raises(ValueError, match=words):

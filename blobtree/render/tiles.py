@@ -52,6 +52,8 @@ from .trace import LOW, PACKET_ROWS, RISE, clip_box, march_cone, trace_packet
 #: Largest image side accepted (a 16384^2 image is 805 MB of RGB).
 MAX_SIDE = 16384
 MAX_SAMPLES = 1024
+#: Range of a camera ray's smallest step, in pixels (``RenderSettings.step``).
+MIN_STEP, MAX_STEP = 0.05, 8.0
 #: Smallest ray step, as a fraction of the scene's diagonal (camera rays also allow half a
 #: pixel's footprint).
 EPS_SCENE = 1e-6
@@ -79,7 +81,9 @@ class RenderSettings:
     diagonal) along the normal; ``light_radius`` (degrees, 0 = a point: hard shadows) is the
     angular radius of every light seen from the scene, an area light whose penumbra widens with
     the distance from occluder to receiver; ``sky`` (0-1) dims the ambient light on surfaces
-    facing down (-y)."""
+    facing down (-y); ``step`` is a camera ray's smallest step, in pixels (a feature thinner
+    than that along the ray may be skipped: half a pixel keeps the thinnest spines' tips; a
+    draft drawn while a control moves may take longer ones)."""
 
     width: int
     height: int
@@ -95,6 +99,7 @@ class RenderSettings:
     occlusion_radius: float = 0.03
     light_radius: float = 0.0
     sky: float = 0.0
+    step: float = 0.5
 
     def __post_init__(self) -> None:
         for name, kind in (("width", Integer(1, MAX_SIDE)), ("height", Integer(1, MAX_SIDE)),
@@ -109,7 +114,8 @@ class RenderSettings:
         for name, kind in (("occlusion", Number(lo=0.0, hi=1.0)),
                            ("occlusion_radius", Number(lo=0.0, hi=1.0, lo_open=True)),
                            ("light_radius", Number(lo=0.0, hi=30.0)),
-                           ("sky", Number(lo=0.0, hi=1.0))):
+                           ("sky", Number(lo=0.0, hi=1.0)),
+                           ("step", Number(lo=MIN_STEP, hi=MAX_STEP))):
             object.__setattr__(self, name, kind.check(name, getattr(self, name)))
         if not isinstance(self.shadows, bool | np.bool_):
             raise ValueError(f"shadows must be True or False, got {str(self.shadows)[:60]}")
@@ -191,8 +197,9 @@ def render_arguments(prog, cam: np.ndarray, lights: np.ndarray, settings: Render
     s = settings
     out = np.empty((y1 - y0, x1 - x0, 3), dtype=np.uint8)
     bg, bg_bytes = s.backdrop
-    # Camera rays may skip features thinner than half a pixel's footprint (along the ray).
-    eps_rel = float(np.linalg.norm(cam[9:12])) / s.height
+    # Camera rays may skip features thinner than ``step`` pixels' footprint (along the ray):
+    # cam[9:12] spans half the image's height at unit distance.
+    eps_rel = 2.0 * s.step * float(np.linalg.norm(cam[9:12])) / s.height
     # No ray meets the surface before reaching the bounds box, nor after its farthest corner.
     eye = cam[:3]
     t_near = float(np.linalg.norm(np.maximum(np.maximum(lo - eye, 0.0), eye - hi)))
