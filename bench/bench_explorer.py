@@ -1,0 +1,62 @@
+"""Modelling live as the notebook shows it: seconds from setting a control of ``bt.explore`` to
+each picture it shows.
+
+    python bench/bench_explorer.py [--spec murex] [--rounds 2]
+
+Drives the explorer in-process (needs ``blobtree[explore]``), warm, the way a notebook does:
+the control set from the main thread, which then blocks (as a kernel's event loop does) until
+the picture is shown (``image`` changes).  For each change of ``bench_live.CHANGES``, each
+round a new value: the draft (``live.DRAFT``, at ``coarse`` pixels), then, after the ``settle``
+pause, the half-size and the 512 studio pictures; the parts of the draft as
+``LiveShell.timings`` reports them.  Unlike ``bench/bench_live.py`` this includes waking the
+drawing thread, encoding the PNG and the settle pause.  A main thread that polls instead of
+blocking takes the GIL from the drawing thread's compile: sleeping 2 ms between looks made the
+drafts a third slower here.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+from bench_live import CHANGES, cpu_name
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--spec", default="murex")
+    ap.add_argument("--rounds", type=int, default=2)
+    args = ap.parse_args()
+    import blobtree as bt
+
+    explorer = bt.explore(args.spec)
+    explorer.wait()
+    shown: list[tuple[float, int, dict[str, float]]] = []
+
+    def on_picture(change) -> None:  # (on the drawing thread, the picture's timings at hand)
+        side = int.from_bytes(change["new"][16:20], "big")  # the PNG's width
+        shown.append((time.perf_counter(), side, dict(explorer.live.timings)))
+
+    explorer.image.observe(on_picture, names="value")
+    print(f"{cpu_name()}; {args.spec}; seconds from setting the control to each picture shown")
+    print(f"{'change':<30}{'draft':>7}{'(tree':>7}{'program':>8}{'framing':>8}{'render)':>9}"
+          f"{'half':>7}{'studio':>8}")
+    try:
+        for name, value in CHANGES:
+            for r in range(args.rounds):
+                shown.clear()
+                start = time.perf_counter()
+                explorer.controls[name].value = value * (1.0 + 0.02 * (r + 1))
+                explorer.wait()
+                at = {side: (t - start, parts) for t, side, parts in shown}
+                first, parts = at[explorer.coarse]
+                print(f"{name + ' = ' + format(explorer.controls[name].value, '.4g'):<30}"
+                      f"{first:>7.3f}{parts['tree']:>7.3f}{parts['program']:>8.3f}"
+                      f"{parts['framing']:>8.3f}{parts['render']:>9.3f}"
+                      f"{at[explorer.size // 2][0]:>7.3f}{at[explorer.size][0]:>8.3f}")
+    finally:
+        explorer.close()
+
+
+if __name__ == "__main__":
+    main()
