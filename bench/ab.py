@@ -15,10 +15,10 @@ field at that mesh's vertices (one batch).
 
 ``--task live`` times ``bench/bench_live.py``'s changes of a spec (``--model``: a shipped spec)
 as the explorer's first picture at ``--size`` pixels (``live.DRAFT`` where the checkout has
-it, else without shadows): the tree, program and
-framing (the parts ``LiveShell.timings`` reports; wall seconds) and the whole picture, each
-summed over the changes; ``--task studio`` the explorer's sharp picture of the spec (the
-studio look) at ``--size`` pixels, without and with shadows.
+it, else without shadows): the tree, program and framing (the parts ``LiveShell.timings``
+reports; wall seconds) and the whole picture, each summed over the changes; ``--task studio``
+the explorer's sharp picture of the spec (the studio look) at ``--size`` pixels, without and
+with shadows.
 
 ``--threads all`` measures what one thread cannot see (parallel overheads): the two checkouts
 then run one after the other, alternating, each on all cores, and each round prints wall

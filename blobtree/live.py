@@ -43,7 +43,7 @@ KEPT = 8
 #: The first picture of a change, drawn while a control moves: no shadow rays, and a whole
 #: pixel as a camera ray's smallest step (the sharp pictures take half a pixel; on the Murex at
 #: 128x128, 39 of 16,384 pixels then differ by more than 8 levels, and the render takes 0.6
-#: times as long).
+#: to 0.8 times as long: docs/live.md).
 DRAFT: dict[str, Any] = {"shadows": False, "step": 1.0}
 
 

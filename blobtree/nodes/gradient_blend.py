@@ -230,10 +230,13 @@ class GradientBlend(Operator):
     def program_children(self) -> list[Node]:
         """Each child at x and shifted by the step along x, y and z (f(x + s e_k)); the same
         node objects each time (the compiler knows a subtree by its identity)."""
-        s = self.used_step
-        return list(self.memo("_shifted", lambda: [
-            n for c in self.children
-            for n in (c, c.translate(-s, 0, 0), c.translate(0, -s, 0), c.translate(0, 0, -s))]))
+        def shifted() -> list[Node]:
+            s = self.used_step
+            return [n for c in self.children
+                    for n in (c, c.translate(-s, 0, 0), c.translate(0, -s, 0),
+                              c.translate(0, 0, -s))]
+
+        return list(self.memo("_shifted", shifted))
 
     def _ref(self, P, look=None):
         s, floor, power = self.used_step, self.used_floor, self.power

@@ -54,8 +54,8 @@ MAX_SIDE = 16384
 MAX_SAMPLES = 1024
 #: Range of a camera ray's smallest step, in pixels (``RenderSettings.step``).
 MIN_STEP, MAX_STEP = 0.05, 8.0
-#: Smallest ray step, as a fraction of the scene's diagonal (camera rays also allow half a
-#: pixel's footprint).
+#: Smallest ray step, as a fraction of the scene's diagonal (camera rays also allow
+#: ``RenderSettings.step`` pixels' footprint).
 EPS_SCENE = 1e-6
 #: Shadow-ray start offset along the normal, as a fraction of the scene's diagonal.
 SHADOW_OFFSET = 1e-4
