@@ -7,7 +7,8 @@ Drives the explorer in-process (needs ``blobtree[explore]``), warm, the way a no
 the control set from the main thread, which then blocks (as a kernel's event loop does) until
 the picture is shown (``image`` changes).  For each change of ``bench_live.CHANGES``, each
 round a new value: the draft (``live.DRAFT``, at ``coarse`` pixels), then, after the ``settle``
-pause, the half-size and the 512 studio pictures; the parts of the draft as
+pause, the 512 studio picture: its first glimpse (the tiles finished after ``live.GLIMPSE``
+seconds, over the draft scaled) and the whole picture; the parts of the draft as
 ``LiveShell.timings`` reports them.  Unlike ``bench/bench_live.py`` this includes waking the
 drawing thread, encoding the PNG and the settle pause.  A main thread that polls instead of
 blocking takes the GIL from the drawing thread's compile: sleeping 2 ms between looks made the
@@ -40,7 +41,7 @@ def main() -> None:
     explorer.image.observe(on_picture, names="value")
     print(f"{cpu_name()}; {args.spec}; seconds from setting the control to each picture shown")
     print(f"{'change':<30}{'draft':>7}{'(tree':>7}{'program':>8}{'framing':>8}{'render)':>9}"
-          f"{'half':>7}{'studio':>8}")
+          f"{'glimpse':>8}{'studio':>8}")
     try:
         for name, value in CHANGES:
             for r in range(args.rounds):
@@ -48,12 +49,13 @@ def main() -> None:
                 start = time.perf_counter()
                 explorer.controls[name].value = value * (1.0 + 0.02 * (r + 1))
                 explorer.wait()
-                at = {side: (t - start, parts) for t, side, parts in shown}
+                at = {side: (t - start, parts) for t, side, parts in shown}  # (the last)
                 first, parts = at[explorer.coarse]
+                glimpse = next(t - start for t, side, _ in shown if side == explorer.size)
                 print(f"{name + ' = ' + format(explorer.controls[name].value, '.4g'):<30}"
                       f"{first:>7.3f}{parts['tree']:>7.3f}{parts['program']:>8.3f}"
                       f"{parts['framing']:>8.3f}{parts['render']:>9.3f}"
-                      f"{at[explorer.size // 2][0]:>7.3f}{at[explorer.size][0]:>8.3f}")
+                      f"{glimpse:>8.3f}{at[explorer.size][0]:>8.3f}")
     finally:
         explorer.close()
 

@@ -32,6 +32,7 @@ from .models.spec import FIELDS, SPIRAL_KEYS, Flag, Numbers, ShellSpec, to_toml
 from .output import write_file
 from .render import LOOKS, local_tiles, render, warm_kernels
 from .render.camera import Camera, frame_points, surface_points
+from .render.image import encode_png
 from .runtime.threads import threads as parallel_threads
 
 #: How far the view turns about the shell axis and tilts toward its apex, in degrees.
@@ -45,6 +46,12 @@ KEPT = 8
 #: 128x128, 39 of 16,384 pixels then differ by more than 8 levels, and the render takes 0.6
 #: to 0.8 times as long: docs/live.md).
 DRAFT: dict[str, Any] = {"shadows": False, "step": 1.0}
+#: Seconds between glimpses of a sharp picture being drawn: its tiles finished so far, shown over
+#: the draft of the same change scaled to its size.
+GLIMPSE = 0.25
+#: Deflate level of a glimpse's PNG (a tenth of a second of encoding a 512 picture at 1, twice
+#: that at the final picture's level).
+GLIMPSE_PNG = 1
 
 
 @dataclass(frozen=True)
@@ -306,6 +313,7 @@ class Explorer:
         self.widget = widgets.HBox([self.image, side])
         self._cond = threading.Condition()
         self._wanted = self._drawn = 0  # generations asked for and fully drawn
+        self._shown: tuple[int, np.ndarray | None] = (0, None)  # the last picture, its generation
         self._closed = False
         self._thread = threading.Thread(target=self._draw_loop, name="blobtree-explore",
                                         daemon=True)
@@ -350,9 +358,8 @@ class Explorer:
     @property
     def passes(self) -> list[tuple[int, dict[str, Any]]]:
         """(side, options) of the pictures drawn for a change: a ``coarse`` draft (``DRAFT``)
-        at once, then half ``size`` and ``size`` with shadows once nothing changes."""
-        half = [(self.size // 2, {})] if self.coarse < self.size // 2 else []
-        return [(self.coarse, DRAFT), *half, (self.size, {})]
+        at once, then ``size`` with shadows once nothing changes, shown as its tiles finish."""
+        return [(self.coarse, DRAFT), (self.size, {})]
 
     def _stale(self, generation: int) -> bool:
         return self._wanted != generation or self._closed
@@ -387,8 +394,6 @@ class Explorer:
 
     def _draw(self, size: int, options: dict[str, Any], generation: int) -> bool:
         """Draw one pass; False if it is not worth going on (a refused spec, or stale)."""
-        from .render.image import encode_png
-
         try:
             img = self.live.picture(size, size, self.view, look=self.look,
                                     source=self._tiles(generation), **options)
@@ -398,23 +403,48 @@ class Explorer:
             self._show_status(f"⚠ {e}")
             return False
         self.image.value = encode_png(img)
+        self._shown = (generation, img)
         self.pictures += 1
         self._show_status(f"{size}x{size}: " + ", ".join(
             f"{k} {v:.2f} s" for k, v in self.live.timings.items()))
         return True
 
     def _tiles(self, generation: int) -> Callable[..., Iterator]:
-        """``render``'s tile source: this machine's, stopped at the first tile after a change
-        (the tiles started finish, the others are dropped)."""
+        """``render``'s tile source: this machine's, the tiles nearest the centre first (the
+        shell), stopped at the first tile after a change (the tiles started finish, the others
+        are dropped).  Once a picture of the same change is shown, every ``GLIMPSE`` seconds
+        the tiles finished so far are shown over it, scaled."""
 
-        def source(*job: Any) -> Iterator:
-            with contextlib.closing(local_tiles(*job, parallel_threads())) as done:
+        def source(prog: Any, camera: Camera, lights: list, settings: Any,
+                   rects: list) -> Iterator:
+            w, h = settings.width, settings.height
+            rects = sorted(rects, key=lambda r: (r[0] + r[2] - w) ** 2 + (r[1] + r[3] - h) ** 2)
+            glimpse = self._glimpse(generation, w, h)
+            last = time.perf_counter()
+            with contextlib.closing(local_tiles(prog, camera, lights, settings, rects,
+                                                parallel_threads())) as done:
                 for item in done:
                     if self._stale(generation):
                         raise _Stale
+                    if glimpse is not None:
+                        (x0, y0, x1, y1), pixels = item
+                        glimpse[y0:y1, x0:x1] = pixels
+                        if time.perf_counter() - last >= GLIMPSE:
+                            self.image.value = encode_png(glimpse, GLIMPSE_PNG)
+                            last = time.perf_counter()
                     yield item
 
         return source
+
+    def _glimpse(self, generation: int, width: int, height: int) -> np.ndarray | None:
+        """The picture shown, scaled to width x height, if it is of this change (else None:
+        another shell's tiles would be mixed in)."""
+        from PIL import Image  # (lazily, as render.image does)
+
+        shown, img = self._shown
+        if shown != generation or img is None:
+            return None
+        return np.array(Image.fromarray(img).resize((width, height), Image.Resampling.BILINEAR))
 
     def _show_status(self, text: str) -> None:
         import html
@@ -466,8 +496,8 @@ def explore(spec: ShellSpec | Mapping | str | Path = "murex", seed: int = 0, siz
     ranges their kinds allow), menus for its choices, grouped by the spec's tables, and the
     view (turn about the shell axis, tilt toward the apex).  A change draws a coarse draft
     at once (``DRAFT``: no shadows, a whole pixel as the smallest step), then, once
-    nothing has changed for ``settle`` seconds, studio pictures with shadows at half ``size``
-    and at ``size`` pixels (a change stops a picture being drawn);
+    nothing has changed for ``settle`` seconds, the studio picture with shadows at ``size``
+    pixels, shown as its tiles finish (a change stops a picture being drawn);
     "save TOML" writes the spec; ``explorer.spec`` is the spec in hand.
 
     ``spec``: a shipped shell's name, a path to a TOML spec, its data or a ShellSpec;

@@ -22,6 +22,8 @@ from blobtree.cli.main import main
 from blobtree.cli.watch_cmd import Watcher
 from blobtree.live import DRAFT, LiveShell, View, slider_range, with_control
 from blobtree.models.spec import SHELLS, load_spec
+from blobtree.render import tile_side, tiles
+from blobtree.runtime.threads import threads
 
 pytest.importorskip("ipywidgets", reason="the test extra installs ipywidgets")
 
@@ -53,6 +55,29 @@ def test_a_control_changes_the_spec_and_the_picture(explorer):
     assert explorer.pictures == drawn + 2  # coarse, then full size
     assert _png(explorer.image.value).shape == (48, 48, 3)
     assert explorer.image.value != before
+
+
+def test_the_sharp_picture_is_shown_as_its_tiles_finish(explorer, monkeypatch):
+    """After the draft, the sharp picture: while it is drawn, glimpses show its finished tiles
+    over the draft scaled to its size; each pixel of a glimpse is the scaled draft's or the
+    final picture's, and more of them are the final's with each tile."""
+    monkeypatch.setattr(bt.live, "GLIMPSE", 0.0)  # a glimpse for every tile
+    assert explorer.passes == [(32, DRAFT), (48, {})]
+    shown: list[np.ndarray] = []
+    explorer.image.observe(lambda change: shown.append(_png(change["new"])), names="value")
+    explorer.controls["canal.tilt"].value = 40.0
+    assert explorer.wait()
+    draft, *glimpses, final = shown
+    assert draft.shape == (32, 32, 3) and final.shape == (48, 48, 3)
+    side = tile_side(48, 48, threads())
+    assert len(glimpses) == len(list(tiles(48, 48, side)))
+    scaled = np.asarray(Image.fromarray(draft).resize((48, 48), Image.Resampling.BILINEAR))
+    done = [(g == final).all(axis=2) for g in glimpses]
+    for g, d in zip(glimpses, done, strict=True):
+        assert (d | (g == scaled).all(axis=2)).all()
+    counts = [d.sum() for d in done]
+    assert counts == sorted(counts) and done[-1].all()
+    assert not done[0].all()
 
 
 def test_an_unchanged_control_gives_no_new_work(explorer):
