@@ -30,7 +30,7 @@ from .helico import HelicoSpiral
 from .models.parts import Parts
 from .models.spec import FIELDS, SPIRAL_KEYS, Flag, Numbers, ShellSpec, to_toml
 from .output import write_file
-from .render import LOOKS, local_tiles, render, warm_kernels
+from .render import LOOKS, Stopped, local_tiles, render, warm_kernels
 from .render.camera import Camera, frame_points, surface_points
 from .render.image import encode_png
 from .runtime.threads import threads as parallel_threads
@@ -314,6 +314,7 @@ class Explorer:
         self._cond = threading.Condition()
         self._wanted = self._drawn = 0  # generations asked for and fully drawn
         self._shown: tuple[int, np.ndarray | None] = (0, None)  # the last picture, its generation
+        self._stop = np.zeros(1, dtype=np.int8)  # set to stop the picture being drawn
         self._closed = False
         self._thread = threading.Thread(target=self._draw_loop, name="blobtree-explore",
                                         daemon=True)
@@ -353,6 +354,7 @@ class Explorer:
     def _request(self) -> None:
         with self._cond:
             self._wanted += 1
+            self._stop[0] = 1  # the picture being drawn ends at its next packet of pixels
             self._cond.notify_all()
 
     @property
@@ -397,7 +399,7 @@ class Explorer:
         try:
             img = self.live.picture(size, size, self.view, look=self.look,
                                     source=self._tiles(generation), **options)
-        except _Stale:
+        except (_Stale, Stopped):
             return False
         except ValueError as e:
             self._show_status(f"⚠ {e}")
@@ -411,9 +413,10 @@ class Explorer:
 
     def _tiles(self, generation: int) -> Callable[..., Iterator]:
         """``render``'s tile source: this machine's, the tiles nearest the centre first (the
-        shell), stopped at the first tile after a change (the tiles started finish, the others
-        are dropped).  Once a picture of the same change is shown, every ``GLIMPSE`` seconds
-        the tiles finished so far are shown over it, scaled."""
+        shell), stopped by a change (:meth:`_request` sets ``local_tiles``' stop flag: the
+        tiles being traced end at their next packet of pixels, the others are dropped).  Once
+        a picture of the same change is shown, every ``GLIMPSE`` seconds the tiles finished so
+        far are shown over it, scaled."""
 
         def source(prog: Any, camera: Camera, lights: list, settings: Any,
                    rects: list) -> Iterator:
@@ -421,8 +424,12 @@ class Explorer:
             rects = sorted(rects, key=lambda r: (r[0] + r[2] - w) ** 2 + (r[1] + r[3] - h) ** 2)
             glimpse = self._glimpse(generation, w, h)
             last = time.perf_counter()
+            with self._cond:  # a change from here on stops this picture's tiles
+                if self._stale(generation):
+                    raise _Stale
+                self._stop = stop = np.zeros(1, dtype=np.int8)
             with contextlib.closing(local_tiles(prog, camera, lights, settings, rects,
-                                                parallel_threads())) as done:
+                                                parallel_threads(), stop)) as done:
                 for item in done:
                     if self._stale(generation):
                         raise _Stale

@@ -118,9 +118,9 @@ def count_tiles(monkeypatch) -> list[tuple]:
     calls: list[tuple] = []
     trace_rect = br.trace_rect
 
-    def spy(prog, cam, lights, settings, *rect):
-        calls.append(rect)
-        return trace_rect(prog, cam, lights, settings, *rect)
+    def spy(prog, cam, lights, settings, x0, y0, x1, y1, *stop):
+        calls.append((x0, y0, x1, y1))
+        return trace_rect(prog, cam, lights, settings, x0, y0, x1, y1, *stop)
 
     monkeypatch.setattr(br, "trace_rect", spy)
     return calls

@@ -92,9 +92,15 @@ def test_an_unchanged_control_gives_no_new_work(explorer):
 def test_a_picture_stops_when_the_controls_change(explorer):
     from blobtree.live import _Stale
 
-    with pytest.raises(_Stale):  # a source for an older change stops at its first tile
+    with pytest.raises(_Stale):  # a source for an older change draws nothing
         explorer.live.picture(48, 48, source=explorer._tiles(explorer._wanted - 1))
     explorer.live.picture(48, 48, source=explorer._tiles(explorer._wanted))
+    drawing = explorer._stop  # (the flag of the picture just drawn, as of one being drawn)
+    assert drawing[0] == 1  # (set as its tiles were closed)
+    drawing[0] = 0
+    explorer.controls["canal.tilt"].value = 41.0
+    assert drawing[0] == 1  # a change stops the tiles being traced at their next packet
+    assert explorer.wait()
 
 
 def test_an_idle_explorer_collects_garbage(explorer):

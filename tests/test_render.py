@@ -25,7 +25,7 @@ from blobtree.render import (
     tiles,
 )
 from blobtree.render.camera import default_camera
-from blobtree.render.shade import SRGB_STEPS, default_lights, linear_to_srgb_byte
+from blobtree.render.shade import SRGB_STEPS, default_lights, linear_to_srgb_byte, pack_lights
 from tests.conftest import examples
 from tests.trees import trees
 
@@ -368,6 +368,28 @@ def test_tiles_assemble_into_identical_bytes(samples):
         out[y0:y1, x0:x1] = render_tile(prog, cam, lights, settings, x0, y0, x1, y1)
     assert (out == whole).all()
     assert (render(prog, w, h, samples=samples, tile=7) == whole).all()
+
+
+def test_a_render_is_stopped_by_its_flag():
+    """A tile traced with its stop flag set draws no packet; unset, the tile's pixels; and
+    local_tiles raises Stopped rather than hand out a tile it may have cut short."""
+    from blobtree.render import Stopped, local_tiles
+    from blobtree.render.tiles import _render_blocks, render_arguments
+
+    prog = bt.models.whorl126().program()
+    cam = default_camera(prog, 32, 32)
+    settings = RenderSettings(width=32, height=32, **LOOKS["studio"])
+    lights = default_lights(cam)
+    packed = (prog, cam.packed(32, 32), pack_lights(lights), settings, 0, 0, 32, 32)
+    for flag, expected in ((1, np.full((32, 32, 3), 7, np.uint8)),
+                           (0, render_tile(prog, cam, lights, settings, 0, 0, 32, 32))):
+        args = render_arguments(*packed, np.full(1, flag, dtype=np.int8))
+        args[3][:] = 7
+        _render_blocks(*args)
+        assert (args[3] == expected).all()
+    stop = np.ones(1, dtype=np.int8)
+    with pytest.raises(Stopped):
+        next(local_tiles(prog, cam, lights, settings, list(tiles(32, 32, 16)), 2, stop))
 
 
 def test_default_tile_is_the_largest_that_keeps_every_thread_busy():

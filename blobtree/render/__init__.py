@@ -39,8 +39,8 @@ from .shade import Light, default_lights, pack_lights
 from .tiles import LOOKS, RenderSettings, compile_tracer, render_tile, trace_rect
 from .trace import intersect_rays
 
-__all__ = ["LOOKS", "Camera", "Light", "RenderSettings", "intersect", "render", "render_tile",
-           "save_image", "tile_side", "tiles", "warm_kernels", "warming"]
+__all__ = ["LOOKS", "Camera", "Light", "RenderSettings", "Stopped", "intersect", "render",
+           "render_tile", "save_image", "tile_side", "tiles", "warm_kernels", "warming"]
 
 Rect = tuple[int, int, int, int]
 #: Renders rectangles somewhere: (prog, camera, lights, settings, rects) -> (rect, pixels)...
@@ -252,20 +252,36 @@ def render(tree, width: int, height: int, camera: Camera | None = None,
     return img
 
 
+class Stopped(Exception):
+    """A render given up: the ``stop`` flag of :func:`local_tiles` was set."""
+
+
 def local_tiles(prog, camera: Camera, lights: list[Light], settings: RenderSettings,
-                 rects: list[tuple[int, int, int, int]], threads: int
+                 rects: list[tuple[int, int, int, int]], threads: int,
+                 stop: np.ndarray | None = None
                  ) -> Iterator[tuple[tuple[int, int, int, int], np.ndarray]]:
     """Render ``rects`` on ``threads`` cores of this machine, yielding (rect, pixels) as tiles
-    finish; closing the iterator drops the tiles not started and waits for the running ones."""
+    finish.  ``stop``: a one-element int8 array another thread may set (non-zero) to give the
+    render up: the running tiles end at their next packet of 8x8 pixels, and this raises
+    :class:`Stopped` instead of yielding another tile.  Closing the iterator drops the tiles
+    not started and stops the running ones so (a render interrupted ends in a few
+    milliseconds, not once its running tiles are done)."""
     cam = camera.packed(settings.width, settings.height)
     packed = pack_lights(lights)
+    if stop is None:
+        stop = np.zeros(1, dtype=np.int8)
     # Each tile runs on one core without the GIL; a pool hands tiles out as cores free up.
     pool = ThreadPoolExecutor(max_workers=threads)
     try:
-        futures = {pool.submit(trace_rect, prog, cam, packed, settings, *r): r for r in rects}
+        futures = {pool.submit(trace_rect, prog, cam, packed, settings, *r, stop): r
+                   for r in rects}
         for done in as_completed(futures):
-            yield futures[done], done.result()
+            pixels = done.result()
+            if stop[0] != 0:  # (the tile may be unfinished)
+                raise Stopped("the render was stopped")
+            yield futures[done], pixels
     finally:
+        stop[0] = 1
         pool.shutdown(wait=True, cancel_futures=True)
 
 

@@ -174,9 +174,12 @@ def render_tile(prog, camera: Camera, lights: list[Light], settings: RenderSetti
 
 
 def trace_rect(prog, cam: np.ndarray, lights: np.ndarray, settings: RenderSettings,
-               x0: int, y0: int, x1: int, y1: int) -> np.ndarray:
-    """:func:`render_tile` on an already packed camera and lights (no argument checks)."""
-    args = render_arguments(prog, cam, lights, settings, x0, y0, x1, y1)
+               x0: int, y0: int, x1: int, y1: int, stop: np.ndarray | None = None
+               ) -> np.ndarray:
+    """:func:`render_tile` on an already packed camera and lights (no argument checks).
+    ``stop``: a one-element int8 array another thread may set (non-zero) to give the tile up:
+    its tracing then ends at the next packet of 8x8 pixels, the pixels left unfinished."""
+    args = render_arguments(prog, cam, lights, settings, x0, y0, x1, y1, stop)
     _render_blocks(*args)
     return args[3]
 
@@ -189,9 +192,10 @@ def compile_tracer(prog, cam: np.ndarray, lights: np.ndarray, settings: RenderSe
 
 
 def render_arguments(prog, cam: np.ndarray, lights: np.ndarray, settings: RenderSettings,
-                     x0: int, y0: int, x1: int, y1: int) -> tuple:
+                     x0: int, y0: int, x1: int, y1: int, stop: np.ndarray | None = None
+                     ) -> tuple:
     """The arguments of the tracer's kernel for pixels [y0, y1) x [x0, x1): the program, the
-    view, the tile, the pixels (to fill), buffers and stacks."""
+    view, the tile, the pixels (to fill), buffers, stacks and the stop flag (``trace_rect``)."""
     lo, hi = (np.asarray(b, dtype=np.float64) for b in prog.bounds)
     diag = float(np.linalg.norm(hi - lo))
     s = settings
@@ -217,7 +221,9 @@ def render_arguments(prog, cam: np.ndarray, lights: np.ndarray, settings: Render
     work = specialize_work.py_func(prog.code)
     buffers = (_program_buffers(len(prog.code)), _program_buffers(len(prog.code)), np.empty(3),
                np.empty(3), work, _packet_scratch(prog.depth, len(prog.code), work))
-    return prog.arrays, view, (x0, y0, x1, y1, gx0, gy0, nbx, nby), out, buffers, st
+    if stop is None:
+        stop = np.zeros(1, dtype=np.int8)
+    return prog.arrays, view, (x0, y0, x1, y1, gx0, gy0, nbx, nby), out, buffers, st, stop
 
 
 def _program_buffers(n: int) -> tuple:
@@ -386,7 +392,7 @@ def _localize(prog, eye, cone, depths, out, box):
 
 
 @kernel(nogil=True)
-def _render_blocks(prog, view, tile, out, buffers, st):
+def _render_blocks(prog, view, tile, out, buffers, st, stop):
     """Pixels [x0, x1) x [y0, y1) into ``out``, on one core without the GIL, on buffers
     ``trace_rect`` allocated: tile = (x0, y0, x1, y1, gx0, gy0, nbx, nby), the nbx x nby blocks of
     CONE_SIDE^2 pixels from block (gx0, gy0), each first marched as one cone, then as cones of
@@ -395,7 +401,8 @@ def _render_blocks(prog, view, tile, out, buffers, st):
     stretch of its cone just past where it stopped, then traces its rays together there
     (:func:`_sub_block`).  Compiled without reference counting (like every kernel on the way
     from here to the field: numba's atomic counts on the shared program arrays cost a quarter
-    of the time with two threads), so nothing here allocates or keeps an array."""
+    of the time with two threads), so nothing here allocates or keeps an array.  Once
+    stop[0] is set (by another thread) it returns before the next packet."""
     cam, width, height, samples, bg_bytes = view[0], view[4], view[5], view[6], view[9]
     t_near, t_far = view[15], view[16]
     x0, y0, x1, y1, gx0, gy0, nbx, nby = tile
@@ -422,6 +429,8 @@ def _render_blocks(prog, view, tile, out, buffers, st):
                 sy1 = min(sy0 + PACKET_SIDE, by1)
                 if sx1 <= x0 or sx0 >= x1 or sy1 <= y0 or sy0 >= y1:
                     continue
+                if stop[0] != 0:
+                    return
                 ts = tb
                 t_local = tb
                 seg0 = np.inf
