@@ -9,7 +9,10 @@ the picture is shown (``image`` changes).  For each change of ``bench_live.CHANG
 round a new value: the draft (``live.DRAFT``, at ``coarse`` pixels), then, after the ``settle``
 pause, the 512 studio picture: its first glimpse (the tiles finished after ``live.GLIMPSE``
 seconds, over the draft scaled) and the whole picture; the parts of the draft as
-``LiveShell.timings`` reports them.  Unlike ``bench/bench_live.py`` this includes waking the
+``LiveShell.timings`` reports them.  Then, as a modeller does who changes a number again while
+looking at the studio picture forming: the control set anew, and once the first glimpse is shown
+set once more; "again" is the seconds from that last change to its draft (the studio picture
+being drawn is stopped first).  Unlike ``bench/bench_live.py`` this includes waking the
 drawing thread, encoding the PNG and the settle pause.  A main thread that polls instead of
 blocking takes the GIL from the drawing thread's compile: sleeping 2 ms between looks made the
 drafts a third slower here.
@@ -18,6 +21,7 @@ drafts a third slower here.
 from __future__ import annotations
 
 import argparse
+import threading
 import time
 
 from bench_live import CHANGES, cpu_name
@@ -33,15 +37,30 @@ def main() -> None:
     explorer = bt.explore(args.spec)
     explorer.wait()
     shown: list[tuple[float, int, dict[str, float]]] = []
+    seen = {side: threading.Event() for side in (explorer.coarse, explorer.size)}
 
     def on_picture(change) -> None:  # (on the drawing thread, the picture's timings at hand)
         side = int.from_bytes(change["new"][16:20], "big")  # the PNG's width
         shown.append((time.perf_counter(), side, dict(explorer.live.timings)))
+        seen[side].set()
+
+    def again(name: str, value: float) -> float:
+        """Seconds to the draft of a change made while the studio picture is drawn."""
+        seen[explorer.size].clear()
+        explorer.controls[name].value = value
+        seen[explorer.size].wait()
+        seen[explorer.coarse].clear()
+        start = time.perf_counter()
+        explorer.controls[name].value = value * 1.01
+        seen[explorer.coarse].wait()
+        took = time.perf_counter() - start
+        explorer.wait()
+        return took
 
     explorer.image.observe(on_picture, names="value")
     print(f"{cpu_name()}; {args.spec}; seconds from setting the control to each picture shown")
     print(f"{'change':<30}{'draft':>7}{'(tree':>7}{'program':>8}{'framing':>8}{'render)':>9}"
-          f"{'glimpse':>8}{'studio':>8}")
+          f"{'glimpse':>8}{'studio':>8}{'again':>7}")
     try:
         for name, value in CHANGES:
             for r in range(args.rounds):
@@ -55,7 +74,8 @@ def main() -> None:
                 print(f"{name + ' = ' + format(explorer.controls[name].value, '.4g'):<30}"
                       f"{first:>7.3f}{parts['tree']:>7.3f}{parts['program']:>8.3f}"
                       f"{parts['framing']:>8.3f}{parts['render']:>9.3f}"
-                      f"{glimpse:>8.3f}{at[explorer.size][0]:>8.3f}")
+                      f"{glimpse:>8.3f}{at[explorer.size][0]:>8.3f}"
+                      f"{again(name, value * (1.01 + 0.02 * (r + 1))):>7.3f}")
     finally:
         explorer.close()
 

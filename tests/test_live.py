@@ -296,6 +296,36 @@ def test_the_watcher_renders_on_a_change_and_survives_a_broken_file(tmp_path):
     assert not w.poll()  # saved again without a change to the spec
 
 
+def test_a_save_while_the_watcher_draws_stops_the_picture(tmp_path, monkeypatch):
+    """The file saved again while its picture is drawn: the picture stops (nothing written),
+    the watcher says so, and the next poll draws the new spec."""
+    import blobtree.cli.watch_cmd as watch_module
+
+    spec, out, said = tmp_path / "mine.toml", tmp_path / "preview.png", []
+    _write(spec, bt.models.spec.to_toml(SMALL))
+    load, tiles_of = watch_module.models.load_spec, watch_module.local_tiles
+
+    def load_then_save(path):  # the editor saves just after the watcher read the file
+        loaded = load(path)
+        _write(spec, bt.models.spec.to_toml(replace(SMALL, point_radius=1.3)))
+        return loaded
+
+    def slow_tiles(*job, threads, stop):  # a picture that takes until the watcher stops it
+        deadline = time.monotonic() + 30.0
+        while stop[0] == 0 and time.monotonic() < deadline:
+            time.sleep(0.005)
+        return tiles_of(*job, threads, stop)
+
+    monkeypatch.setattr(watch_module.models, "load_spec", load_then_save)
+    monkeypatch.setattr(watch_module, "local_tiles", slow_tiles)
+    w = Watcher(spec, out, 48, 40, say=said.append, interval=0.01, shadows=False)
+    assert not w.poll() and not out.exists()
+    assert said[-1] == f"{spec}: saved again while drawn; drawing the new one"
+    monkeypatch.setattr(watch_module.models, "load_spec", load)
+    monkeypatch.setattr(watch_module, "local_tiles", tiles_of)
+    assert w.poll() and w.live.spec.point_radius == 1.3 and out.exists()
+
+
 def test_watch_command_refuses_bad_arguments_and_stops_on_ctrl_c(tmp_path, monkeypatch):
     r = CliRunner().invoke(main, ["watch", "scene.json"])
     assert r.exit_code == 2 and "expected a shell spec file (.toml)" in r.output

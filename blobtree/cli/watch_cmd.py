@@ -8,18 +8,23 @@ it over the old one, which event watchers of the old file miss.  A poll costs on
 
 from __future__ import annotations
 
+import contextlib
 import os
+import threading
 import time
 from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 
 import click
+import numpy as np
 
 from .. import models
 from ..live import LiveShell
 from ..output import display_name
-from ..render import save_image, warming
+from ..render import Stopped, local_tiles, save_image, warming
 from ..render.image import IMAGE_FORMATS
+from ..runtime.threads import threads as parallel_threads
 from . import checked_output, compile_notice
 from .render_cmd import _size, look_options
 
@@ -27,22 +32,38 @@ from .render_cmd import _size, look_options
 class Watcher:
     """Renders ``spec_path`` to ``output`` whenever the file changes (:meth:`poll`); a file
     the spec reader refuses is reported through ``say`` in one line and the last good picture
-    is kept."""
+    is kept.  While a picture is drawn the file is looked at every ``interval`` seconds too: a
+    save stops the picture (nothing is written) and the next poll draws the new spec."""
 
     def __init__(self, spec_path: str | Path, output: str | Path, width: int, height: int,
-                 say: Callable[[str], None] = print, **render_options) -> None:
+                 say: Callable[[str], None] = print, interval: float = 0.25,
+                 **render_options) -> None:
         self.spec_path, self.output = Path(spec_path), output
         self.width, self.height = width, height
-        self.say, self.options = say, render_options
+        self.say, self.interval, self.options = say, interval, render_options
         self.live: LiveShell | None = None
         self._seen: tuple[int, int] | None = None
+
+    def _stamp(self) -> tuple[int, int] | None:
+        """The file's modification time and size; OSError if it cannot be read."""
+        st = os.stat(self.spec_path)
+        return st.st_mtime_ns, st.st_size
+
+    def _stop_on_save(self, stamp: tuple[int, int], stop: np.ndarray, done: threading.Event
+                      ) -> None:
+        """Until ``done``: set ``stop`` once the file is no longer as ``stamp`` says."""
+        while not done.wait(self.interval):
+            with contextlib.suppress(OSError):
+                if self._stamp() == stamp:
+                    continue
+            stop[0] = 1
+            return
 
     def poll(self) -> bool:
         """Look at the file once; render if it changed since the last look.  True if a
         picture was written."""
         try:
-            st = os.stat(self.spec_path)
-            stamp = (st.st_mtime_ns, st.st_size)
+            stamp = self._stamp()
         except OSError as e:
             stamp = None
             if self._seen is not None or self.live is None:
@@ -63,7 +84,19 @@ class Watcher:
         elif not self.live.set(spec):
             return False  # saved without a change to the spec
         start = time.perf_counter()
-        img = self.live.picture(self.width, self.height, **self.options)
+        stop, done = np.zeros(1, dtype=np.int8), threading.Event()
+        looking = threading.Thread(target=self._stop_on_save, args=(stamp, stop, done),
+                                   name="blobtree-watch", daemon=True)
+        looking.start()
+        try:
+            img = self.live.picture(self.width, self.height, source=partial(
+                local_tiles, threads=parallel_threads(), stop=stop), **self.options)
+        except Stopped:
+            self.say(f"{self.spec_path}: saved again while drawn; drawing the new one")
+            return False
+        finally:
+            done.set()
+            looking.join()
         save_image(img, self.output)
         self.say(f"{display_name(self.output)}: {self.width}x{self.height}, "
                  f"{time.perf_counter() - start:.2f} s")
@@ -90,7 +123,8 @@ def watch(spec, output, size, samples, no_shadows, look, background, interval) -
                                  param_hint="-o")
     checked_output(output, IMAGE_FORMATS, None)
     watcher = Watcher(spec, output, *size, say=lambda m: click.echo(m, err=True),
-                      samples=samples, shadows=not no_shadows, look=look, background=background)
+                      interval=interval, samples=samples, shadows=not no_shadows, look=look,
+                      background=background)
     click.echo(f"watching {spec} (Ctrl-C stops)", err=True)
     try:
         with compile_notice(), warming():
