@@ -416,7 +416,7 @@ class Explorer:
         shell), stopped by a change (:meth:`_request` sets ``local_tiles``' stop flag: the
         tiles being traced end at their next packet of pixels, the others are dropped).  Once
         a picture of the same change is shown, every ``GLIMPSE`` seconds the tiles finished so
-        far are shown over it, scaled."""
+        far are shown over it, scaled, and their count under the buttons."""
 
         def source(prog: Any, camera: Camera, lights: list, settings: Any,
                    rects: list) -> Iterator:
@@ -430,7 +430,7 @@ class Explorer:
                 self._stop = stop = np.zeros(1, dtype=np.int8)
             with contextlib.closing(local_tiles(prog, camera, lights, settings, rects,
                                                 parallel_threads(), stop)) as done:
-                for item in done:
+                for finished, item in enumerate(done, 1):
                     if self._stale(generation):
                         raise _Stale
                     if glimpse is not None:
@@ -438,6 +438,7 @@ class Explorer:
                         glimpse[y0:y1, x0:x1] = pixels
                         if time.perf_counter() - last >= GLIMPSE:
                             self.image.value = encode_png(glimpse, GLIMPSE_PNG)
+                            self._show_status(f"{w}x{h}: {finished} of {len(rects)} tiles")
                             last = time.perf_counter()
                     yield item
 

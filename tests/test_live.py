@@ -64,7 +64,9 @@ def test_the_sharp_picture_is_shown_as_its_tiles_finish(explorer, monkeypatch):
     monkeypatch.setattr(bt.live, "GLIMPSE", 0.0)  # a glimpse for every tile
     assert explorer.passes == [(32, DRAFT), (48, {})]
     shown: list[np.ndarray] = []
+    said: list[str] = []
     explorer.image.observe(lambda change: shown.append(_png(change["new"])), names="value")
+    explorer.status.observe(lambda change: said.append(change["new"]), names="value")
     explorer.controls["canal.tilt"].value = 40.0
     assert explorer.wait()
     draft, *glimpses, final = shown
@@ -78,6 +80,8 @@ def test_the_sharp_picture_is_shown_as_its_tiles_finish(explorer, monkeypatch):
     counts = [d.sum() for d in done]
     assert counts == sorted(counts) and done[-1].all()
     assert not done[0].all()
+    assert [f"48x48: {k} of {len(glimpses)} tiles" in text for k, text in
+            enumerate(said[-len(glimpses) - 1:-1], 1)] == [True] * len(glimpses)
 
 
 def test_an_unchanged_control_gives_no_new_work(explorer):
