@@ -483,6 +483,7 @@ class Explorer:
         """Stop the drawing thread and close the widgets."""
         with self._cond:
             self._closed = True
+            self._stop[0] = 1
             self._cond.notify_all()
         self._thread.join()
         self.widget.close()

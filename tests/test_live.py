@@ -107,6 +107,15 @@ def test_a_picture_stops_when_the_controls_change(explorer):
     assert explorer.wait()
 
 
+def test_closing_stops_the_picture_being_drawn():
+    ex = bt.explore(SMALL, size=48, coarse=32, settle=0.0)
+    assert ex.wait()
+    drawing = ex._stop
+    drawing[0] = 0  # (as while a picture is drawn)
+    ex.close()
+    assert drawing[0] == 1 and not ex._thread.is_alive()
+
+
 def test_an_idle_explorer_collects_garbage(explorer):
     """Full collections fall while nothing is drawn, not in the next change's picture."""
     full: list[str] = []
