@@ -8,8 +8,8 @@ first picture (``--coarse`` pixels square, the draft the explorer draws while a 
 ``live.DRAFT``, no shadow rays, a whole pixel as a camera ray's smallest step): building the
 tree, compiling its program, framing it (the inside points the camera fits), rendering
 (tracing, with the per-tile specialising of the program to each tile's frustum inside it);
-then the studio pictures (shadows) the explorer draws next, at half ``--size`` and at
-``--size`` pixels, from the same tree.  A turn of the view only renders.  The targets of
+then the studio picture (shadows) the explorer draws next, at ``--size`` pixels, from the
+same tree.  A turn of the view only renders.  The targets of
 docs/live.md: the first picture within 0.3 s of a change, the studio picture within 1.5 s.
 
 Each change starts from the base spec, and its rounds follow one another (the same control
@@ -60,7 +60,7 @@ def main() -> None:
           f"{DRAFT}), studio {args.size}x{args.size}; each column the best of {args.rounds}, "
           "seconds")
     print(f"{'change':<28}{'tree':>7}{'program':>9}{'framing':>9}{'render':>8}{'first':>8}"
-          f"{'half':>8}{'studio':>8}{'total':>8}")
+          f"{'studio':>8}{'total':>8}")
     order = [(r, change) for change in CHANGES for r in range(args.rounds)]
     if args.in_turn:
         order.sort(key=lambda item: item[0])
@@ -72,16 +72,14 @@ def main() -> None:
         live.set(spec)
         live.picture(args.coarse, args.coarse, **DRAFT)
         t = dict(live.timings, first=sum(live.timings.values()))
-        live.picture(args.size // 2, args.size // 2)
-        t["half"] = live.timings["render"]
         live.picture(args.size, args.size)
         t["studio"] = live.timings["render"]
-        t["total"] = t["first"] + t["half"] + t["studio"]
+        t["total"] = t["first"] + t["studio"]
         best[name] = {k: min(v, best[name].get(k, v)) for k, v in t.items()}
     for name, value in CHANGES:
         b = best[name]
         print(f"{name + ' = ' + format(value, 'g'):<28}{b['tree']:>7.3f}{b['program']:>9.3f}"
-              f"{b['framing']:>9.3f}{b['render']:>8.3f}{b['first']:>8.3f}{b['half']:>8.3f}"
+              f"{b['framing']:>9.3f}{b['render']:>8.3f}{b['first']:>8.3f}"
               f"{b['studio']:>8.3f}{b['total']:>8.3f}")
     live.set(base)
     live.picture(args.coarse, args.coarse, **DRAFT)  # built again: turns only render
