@@ -431,8 +431,6 @@ class Explorer:
             with contextlib.closing(local_tiles(prog, camera, lights, settings, rects,
                                                 parallel_threads(), stop)) as done:
                 for finished, item in enumerate(done, 1):
-                    if self._stale(generation):
-                        raise _Stale
                     if glimpse is not None:
                         (x0, y0, x1, y1), pixels = item
                         glimpse[y0:y1, x0:x1] = pixels

@@ -44,7 +44,7 @@ class Watcher:
         self.live: LiveShell | None = None
         self._seen: tuple[int, int] | None = None
 
-    def _stamp(self) -> tuple[int, int] | None:
+    def _stamp(self) -> tuple[int, int]:
         """The file's modification time and size; OSError if it cannot be read."""
         st = os.stat(self.spec_path)
         return st.st_mtime_ns, st.st_size
