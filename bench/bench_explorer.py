@@ -1,7 +1,7 @@
 """Modelling live as the notebook shows it: seconds from setting a control of ``bt.explore`` to
 each picture it shows.
 
-    python bench/bench_explorer.py [--spec murex] [--rounds 2]
+    python bench/bench_explorer.py [--spec murex] [--rounds 2] [--settle SECONDS]
 
 Drives the explorer in-process (needs ``blobtree[explore]``), warm, the way a notebook does:
 the control set from the main thread, which then blocks (as a kernel's event loop does) until
@@ -12,7 +12,9 @@ seconds, over the draft scaled) and the whole picture; the parts of the draft as
 ``LiveShell.timings`` reports them.  Then, as a modeller does who changes a number again while
 looking at the studio picture forming: the control set anew, and once the first glimpse is shown
 set once more; "again" is the seconds from that last change to its draft (the studio picture
-being drawn is stopped first).  Unlike ``bench/bench_live.py`` this includes waking the
+being drawn is stopped first).  Last, a slider dragged: ``canal.tilt`` set to ``DRAGGED``
+values ``DRAG_GAP`` seconds apart, and the seconds from the last to its draft and its studio
+picture.  Unlike ``bench/bench_live.py`` this includes waking the
 drawing thread, encoding the PNG and the settle pause.  A main thread that polls instead of
 blocking takes the GIL from the drawing thread's compile: sleeping 2 ms between looks made the
 drafts a third slower here.
@@ -26,15 +28,21 @@ import time
 
 from bench_live import CHANGES, cpu_name
 
+#: The drag timed last: this many values of a control, DRAG_GAP seconds apart (a slider held
+#: and moved sends a value every few hundredths of a second).
+DRAGGED, DRAG_GAP = 20, 0.06
+
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--spec", default="murex")
     ap.add_argument("--rounds", type=int, default=2)
+    ap.add_argument("--settle", type=float, default=None,
+                    help="the explorer's settle pause, seconds (default: its own)")
     args = ap.parse_args()
     import blobtree as bt
 
-    explorer = bt.explore(args.spec)
+    explorer = bt.explore(args.spec, **({} if args.settle is None else {"settle": args.settle}))
     explorer.wait()
     shown: list[tuple[float, int, dict[str, float]]] = []
     seen = {side: threading.Event() for side in (explorer.coarse, explorer.size)}
@@ -58,7 +66,8 @@ def main() -> None:
         return took
 
     explorer.image.observe(on_picture, names="value")
-    print(f"{cpu_name()}; {args.spec}; seconds from setting the control to each picture shown")
+    print(f"{cpu_name()}; {args.spec}; settle {explorer.settle} s; seconds from setting the "
+          "control to each picture shown")
     print(f"{'change':<30}{'draft':>7}{'(tree':>7}{'program':>8}{'framing':>8}{'render)':>9}"
           f"{'glimpse':>8}{'studio':>8}{'again':>7}")
     try:
@@ -76,6 +85,17 @@ def main() -> None:
                       f"{parts['framing']:>8.3f}{parts['render']:>9.3f}"
                       f"{glimpse:>8.3f}{at[explorer.size][0]:>8.3f}"
                       f"{again(name, value * (1.01 + 0.02 * (r + 1))):>7.3f}")
+        for r in range(args.rounds):  # a slider dragged: values DRAG_GAP s apart
+            shown.clear()
+            for k in range(DRAGGED):
+                explorer.controls["canal.tilt"].value = 45.0 + 0.5 * k + 0.1 * r
+                start = time.perf_counter()
+                time.sleep(DRAG_GAP)
+            explorer.wait()
+            draft = [t for t, side, _ in shown if side == explorer.coarse]
+            print(f"canal.tilt dragged, {DRAGGED} values {DRAG_GAP} s apart: {len(draft)} drafts "
+                  f"shown; the last value's draft {draft[-1] - start:.3f} s after it, its "
+                  f"studio picture {shown[-1][0] - start:.3f} s")
     finally:
         explorer.close()
 

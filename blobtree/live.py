@@ -272,7 +272,7 @@ class Explorer:
     the picture; ``pictures`` counts the pictures drawn."""
 
     def __init__(self, spec: ShellSpec | Mapping | str | Path = "murex", seed: int = 0,
-                 size: int = 512, coarse: int = 128, settle: float = 0.25,
+                 size: int = 512, coarse: int = 128, settle: float = 0.0,
                  path: str | Path | None = None) -> None:
         import ipywidgets as widgets
 
@@ -387,18 +387,20 @@ class Explorer:
                 if i == 1:
                     with self._cond:
                         self._cond.wait_for(lambda g=generation: self._stale(g), self.settle)
-                if self._stale(generation) or not self._draw(side, options, generation):
+                if self._stale(generation) or not self._draw(side, options, generation, i > 0):
                     break
             with self._cond:
                 if not self._stale(generation) or self._closed:
                     self._drawn = generation
                     self._cond.notify_all()
 
-    def _draw(self, size: int, options: dict[str, Any], generation: int) -> bool:
-        """Draw one pass; False if it is not worth going on (a refused spec, or stale)."""
+    def _draw(self, size: int, options: dict[str, Any], generation: int,
+              stoppable: bool = True) -> bool:
+        """Draw one pass (stopped by a change if ``stoppable``); False if it is not worth going
+        on (a refused spec, or stale)."""
         try:
             img = self.live.picture(size, size, self.view, look=self.look,
-                                    source=self._tiles(generation), **options)
+                                    source=self._tiles(generation, stoppable), **options)
         except (_Stale, Stopped):
             return False
         except ValueError as e:
@@ -411,12 +413,14 @@ class Explorer:
             f"{k} {v:.2f} s" for k, v in self.live.timings.items()))
         return True
 
-    def _tiles(self, generation: int) -> Callable[..., Iterator]:
+    def _tiles(self, generation: int, stoppable: bool = True) -> Callable[..., Iterator]:
         """``render``'s tile source: this machine's, the tiles nearest the centre first (the
-        shell), stopped by a change (:meth:`_request` sets ``local_tiles``' stop flag: the
-        tiles being traced end at their next packet of pixels, the others are dropped).  Once
-        a picture of the same change is shown, every ``GLIMPSE`` seconds the tiles finished so
-        far are shown over it, scaled, and their count under the buttons."""
+        shell); if ``stoppable``, stopped by a change (:meth:`_request` sets ``local_tiles``'
+        stop flag: the tiles being traced end at their next packet of pixels, the others are
+        dropped), else drawn whole (a draft: while a slider is dragged, each draft finished
+        shows the shell following it).  Once a picture of the same change is shown, every
+        ``GLIMPSE`` seconds the tiles finished so far are shown over it, scaled, and their
+        count under the buttons."""
 
         def source(prog: Any, camera: Camera, lights: list, settings: Any,
                    rects: list) -> Iterator:
@@ -424,10 +428,12 @@ class Explorer:
             rects = sorted(rects, key=lambda r: (r[0] + r[2] - w) ** 2 + (r[1] + r[3] - h) ** 2)
             glimpse = self._glimpse(generation, w, h)
             last = time.perf_counter()
-            with self._cond:  # a change from here on stops this picture's tiles
-                if self._stale(generation):
-                    raise _Stale
-                self._stop = stop = np.zeros(1, dtype=np.int8)
+            stop = np.zeros(1, dtype=np.int8)
+            if stoppable:
+                with self._cond:  # a change from here on stops this picture's tiles
+                    if self._stale(generation):
+                        raise _Stale
+                    self._stop = stop
             with contextlib.closing(local_tiles(prog, camera, lights, settings, rects,
                                                 parallel_threads(), stop)) as done:
                 for finished, item in enumerate(done, 1):
@@ -504,11 +510,12 @@ def explore(spec: ShellSpec | Mapping | str | Path = "murex", seed: int = 0, siz
     view (turn about the shell axis, tilt toward the apex).  A change draws a coarse draft
     at once (``DRAFT``: no shadows, a whole pixel as the smallest step), then, once
     nothing has changed for ``settle`` seconds, the studio picture with shadows at ``size``
-    pixels, shown as its tiles finish (a change stops a picture being drawn);
+    pixels, shown as its tiles finish (a change stops it; a draft is always finished, so a
+    dragged slider shows the shell following it);
     "save TOML" writes the spec; ``explorer.spec`` is the spec in hand.
 
     ``spec``: a shipped shell's name, a path to a TOML spec, its data or a ShellSpec;
-    ``options``: ``coarse`` (side of the first picture, 128), ``settle`` (0.25 s), ``path``
+    ``options``: ``coarse`` (side of the first picture, 128), ``settle`` (0 s), ``path``
     (the file "save TOML" writes).  Needs ipywidgets (``pip install blobtree[explore]``)."""
     try:
         import ipywidgets  # noqa: F401

@@ -98,7 +98,10 @@ def test_a_picture_stops_when_the_controls_change(explorer):
 
     with pytest.raises(_Stale):  # a source for an older change draws nothing
         explorer.live.picture(48, 48, source=explorer._tiles(explorer._wanted - 1))
-    explorer.live.picture(48, 48, source=explorer._tiles(explorer._wanted))
+    sharp = explorer.live.picture(48, 48, source=explorer._tiles(explorer._wanted))
+    # ... but a draft is drawn whole (while a slider is dragged, each one shows it moving)
+    draft = explorer.live.picture(48, 48, source=explorer._tiles(explorer._wanted - 1, False))
+    assert (draft == sharp).all()
     drawing = explorer._stop  # (the flag of the picture just drawn, as of one being drawn)
     assert drawing[0] == 1  # (set as its tiles were closed)
     drawing[0] = 0
