@@ -30,7 +30,7 @@ from .helico import HelicoSpiral
 from .models.parts import Parts
 from .models.spec import FIELDS, SPIRAL_KEYS, Flag, Numbers, ShellSpec, to_toml
 from .output import write_file
-from .render import LOOKS, Stopped, local_tiles, render, warm_kernels
+from .render import LOOKS, Stopped, local_tiles, render, stop_flag, warm_kernels
 from .render.camera import Camera, frame_points, surface_points
 from .render.image import encode_png
 from .runtime.threads import threads as parallel_threads
@@ -314,7 +314,7 @@ class Explorer:
         self._cond = threading.Condition()
         self._wanted = self._drawn = 0  # generations asked for and fully drawn
         self._shown: tuple[int, np.ndarray | None] = (0, None)  # the last picture, its generation
-        self._stop = np.zeros(1, dtype=np.int8)  # set to stop the picture being drawn
+        self._stop = stop_flag()  # set to stop the picture being drawn
         self._closed = False
         self._thread = threading.Thread(target=self._draw_loop, name="blobtree-explore",
                                         daemon=True)
@@ -395,7 +395,7 @@ class Explorer:
                     self._cond.notify_all()
 
     def _draw(self, size: int, options: dict[str, Any], generation: int,
-              stoppable: bool = True) -> bool:
+              stoppable: bool) -> bool:
         """Draw one pass (stopped by a change if ``stoppable``); False if it is not worth going
         on (a refused spec, or stale)."""
         try:
@@ -428,7 +428,7 @@ class Explorer:
             rects = sorted(rects, key=lambda r: (r[0] + r[2] - w) ** 2 + (r[1] + r[3] - h) ** 2)
             glimpse = self._glimpse(generation, w, h)
             last = time.perf_counter()
-            stop = np.zeros(1, dtype=np.int8)
+            stop = stop_flag()
             if stoppable:
                 with self._cond:  # a change from here on stops this picture's tiles
                     if self._stale(generation):
@@ -453,8 +453,8 @@ class Explorer:
         another shell's tiles would be mixed in)."""
         from PIL import Image  # (lazily, as render.image does)
 
-        shown, img = self._shown
-        if shown != generation or img is None:
+        shown, img = self._shown  # (generations start at 1: none is shown as of 0)
+        if shown != generation:
             return None
         return np.array(Image.fromarray(img).resize((width, height), Image.Resampling.BILINEAR))
 

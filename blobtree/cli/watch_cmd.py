@@ -22,7 +22,7 @@ import numpy as np
 from .. import models
 from ..live import LiveShell
 from ..output import display_name
-from ..render import Stopped, local_tiles, save_image, warming
+from ..render import Stopped, local_tiles, save_image, stop_flag, warming
 from ..render.image import IMAGE_FORMATS
 from ..runtime.threads import threads as parallel_threads
 from . import checked_output, compile_notice
@@ -84,7 +84,7 @@ class Watcher:
         elif not self.live.set(spec):
             return False  # saved without a change to the spec
         start = time.perf_counter()
-        stop, done = np.zeros(1, dtype=np.int8), threading.Event()
+        stop, done = stop_flag(), threading.Event()
         looking = threading.Thread(target=self._stop_on_save, args=(stamp, stop, done),
                                    name="blobtree-watch", daemon=True)
         looking.start()

@@ -36,11 +36,12 @@ from .camera import Camera, seen_camera
 from .checkpoint import Checkpoint, job_key
 from .image import save_image
 from .shade import Light, default_lights, pack_lights
-from .tiles import LOOKS, RenderSettings, compile_tracer, render_tile, trace_rect
+from .tiles import LOOKS, RenderSettings, compile_tracer, render_tile, stop_flag, trace_rect
 from .trace import intersect_rays
 
 __all__ = ["LOOKS", "Camera", "Light", "RenderSettings", "Stopped", "intersect", "render",
-           "render_tile", "save_image", "tile_side", "tiles", "warm_kernels", "warming"]
+           "render_tile", "save_image", "stop_flag", "tile_side", "tiles", "warm_kernels",
+           "warming"]
 
 Rect = tuple[int, int, int, int]
 #: Renders rectangles somewhere: (prog, camera, lights, settings, rects) -> (rect, pixels)...
@@ -261,15 +262,15 @@ def local_tiles(prog, camera: Camera, lights: list[Light], settings: RenderSetti
                  stop: np.ndarray | None = None
                  ) -> Iterator[tuple[tuple[int, int, int, int], np.ndarray]]:
     """Render ``rects`` on ``threads`` cores of this machine, yielding (rect, pixels) as tiles
-    finish.  ``stop``: a one-element int8 array another thread may set (non-zero) to give the
-    render up: the running tiles end at their next packet of 8x8 pixels, and this raises
+    finish.  ``stop`` (:func:`stop_flag`), once another thread sets it, gives the render up:
+    the running tiles end at their next packet of 8x8 pixels, and this raises
     :class:`Stopped` instead of yielding another tile.  Closing the iterator drops the tiles
     not started and stops the running ones so (a render interrupted ends in a few
     milliseconds, not once its running tiles are done)."""
     cam = camera.packed(settings.width, settings.height)
     packed = pack_lights(lights)
     if stop is None:
-        stop = np.zeros(1, dtype=np.int8)
+        stop = stop_flag()
     # Each tile runs on one core without the GIL; a pool hands tiles out as cores free up.
     pool = ThreadPoolExecutor(max_workers=threads)
     try:

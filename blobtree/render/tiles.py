@@ -173,12 +173,18 @@ def render_tile(prog, camera: Camera, lights: list[Light], settings: RenderSetti
                       settings, x0, y0, x1, y1)
 
 
+def stop_flag() -> np.ndarray:
+    """A new stop flag, unset: a one-element int8 array that another thread sets (to 1) to give
+    a render up (:func:`trace_rect`, ``render.local_tiles``)."""
+    return np.zeros(1, dtype=np.int8)
+
+
 def trace_rect(prog, cam: np.ndarray, lights: np.ndarray, settings: RenderSettings,
                x0: int, y0: int, x1: int, y1: int, stop: np.ndarray | None = None
                ) -> np.ndarray:
     """:func:`render_tile` on an already packed camera and lights (no argument checks).
-    ``stop``: a one-element int8 array another thread may set (non-zero) to give the tile up:
-    its tracing then ends at the next packet of 8x8 pixels, the pixels left unfinished."""
+    ``stop`` (:func:`stop_flag`), once another thread sets it, gives the tile up: its tracing
+    then ends at the next packet of 8x8 pixels, the pixels left unfinished."""
     args = render_arguments(prog, cam, lights, settings, x0, y0, x1, y1, stop)
     _render_blocks(*args)
     return args[3]
@@ -222,7 +228,7 @@ def render_arguments(prog, cam: np.ndarray, lights: np.ndarray, settings: Render
     buffers = (_program_buffers(len(prog.code)), _program_buffers(len(prog.code)), np.empty(3),
                np.empty(3), work, _packet_scratch(prog.depth, len(prog.code), work))
     if stop is None:
-        stop = np.zeros(1, dtype=np.int8)
+        stop = stop_flag()
     return prog.arrays, view, (x0, y0, x1, y1, gx0, gy0, nbx, nby), out, buffers, st, stop
 
 
