@@ -29,6 +29,7 @@ from .helico import KINDS as SPIRAL_KINDS
 from .helico import HelicoSpiral
 from .models.parts import Parts
 from .models.spec import FIELDS, SPIRAL_KEYS, Flag, Numbers, ShellSpec, to_toml
+from .nodes.node import drop_older_frames, mark_frames
 from .output import write_file
 from .render import LOOKS, Stopped, local_tiles, render, stop_flag, warm_kernels
 from .render.camera import Camera, frame_points, surface_points
@@ -100,6 +101,8 @@ class LiveShell:
         self._reuse = Reuse()
         #: the parts of the shells built, handed back where a change leaves them as they were
         self._parts = Parts(KEPT)
+        #: the memos by frame :meth:`tidy` marked
+        self._marked: list[dict] = []
         self.timings: dict[str, float] = {}
 
     def set(self, spec: ShellSpec | None = None, seed: int | None = None) -> bool:
@@ -127,6 +130,17 @@ class LiveShell:
         while len(self._kept) > KEPT:
             self._kept.popitem(last=False)
         return built
+
+    def tidy(self) -> None:
+        """Forget the frames the nodes of the last tree built keep boxes and maps for (their
+        memos by frame) that no compile asked for since the last tidy (call it while idle: a
+        few milliseconds).  The pieces of the parts kept are placed anew at each change of
+        the spiral, each time in new frames: without this, their memos would gather a frame
+        a change (1.1 MB a change of the Murex's spiral), without end."""
+        drop_older_frames(self._marked)
+        self._marked = []
+        if self._kept:
+            self._marked = mark_frames(next(reversed(self._kept.values())).tree.unique())
 
     def camera(self, width: int, height: int, view: View = View()) -> Camera:
         """The camera framing the shell in a width x height picture seen from ``view``."""
@@ -376,6 +390,7 @@ class Explorer:
             with self._cond:
                 idle = self._wanted == self._drawn and not self._closed
             if idle:  # (outside the lock: a control moved meanwhile is not held up)
+                self.live.tidy()
                 gc.collect()
             with self._cond:
                 while self._wanted == self._drawn and not self._closed:

@@ -284,6 +284,52 @@ def test_boxes_handed_on_do_not_grow_with_the_changes():
     assert max(totals) <= (1 + HANDED_BOXES) * totals[0]
 
 
+
+def test_kept_parts_placed_anew_do_not_gather_frames():
+    """A spiral changed again and again places the very nodes of the parts kept (the pieces
+    in their local frames) in new frames: tidied between changes (as the explorer and the
+    watcher do while idle), their memos by frame hold the frames of the last compiles, not one
+    more set per change; the program is still the one compiled afresh."""
+    from blobtree.engine.program import compile_tree
+    from blobtree.nodes.node import FRAME_MEMOS
+
+    def frames(tree) -> int:  # entries of the distinct memos by frame of the tree's nodes
+        memos = {id(m): m for n in tree.unique() for name in FRAME_MEMOS
+                 if (m := n.__dict__.get(name)) is not None}
+        return sum(isinstance(key, bytes) for m in memos.values() for key in m)
+
+    live, totals = LiveShell(SMALL), []
+    for k in range(6):
+        live.set(with_control(SMALL, "spiral.beta", 20.0 + k))
+        live.camera(32, 32)
+        live.tidy()
+        built = live._built((live.spec, live.seed))
+        totals.append(frames(built.tree))
+    fresh = compile_tree(bt.models.shell(live.spec))
+    for name in ("code", "params", "boxes", "lips"):
+        assert np.array_equal(getattr(built.prog, name), getattr(fresh, name)), name
+    assert max(totals) <= 1.05 * totals[0]
+
+
+def test_tidying_keeps_the_frames_asked_for_since_the_mark():
+    """Of a memo by frame touched since the mark, the frames asked for since stay (asked
+    again or new), the others go; an untouched memo keeps them all."""
+    from blobtree import geometry as geo
+    from blobtree.nodes.node import drop_older_frames, mark_frames
+
+    moved = [geo.affine(np.eye(3), (float(k), 0.0, 0.0)) for k in range(3)]
+    touched, left = bt.Point(radius=1.0), bt.Point(radius=2.0)
+    for node in (touched, left):
+        for M in moved[:2]:
+            node.box(M)
+    memos = mark_frames([touched, left])
+    touched.box(moved[0])  # asked again
+    touched.box(moved[2])  # new
+    drop_older_frames(memos)
+    assert list(touched.box_memo()) == [moved[0].tobytes(), moved[2].tobytes()]
+    assert list(left.box_memo()) == [moved[0].tobytes(), moved[1].tobytes()]
+    assert np.array_equal(touched.box(moved[1])[0], [0.0, -1.0, -1.0])
+
 # ----- blobtree watch ------------------------------------------------------------------------
 def _write(path: Path, text: str) -> None:
     path.write_text(text)

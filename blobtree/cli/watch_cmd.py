@@ -98,6 +98,7 @@ class Watcher:
             done.set()
             looking.join()
         save_image(img, self.output)
+        self.live.tidy()
         self.say(f"{display_name(self.output)}: {self.width}x{self.height}, "
                  f"{time.perf_counter() - start:.2f} s")
         return True

@@ -183,10 +183,12 @@ class Affine(Unary):
         only, computed once per frame (boxes and the compiler both ask for it)."""
         memo = self.memo("_framed", dict)
         key = L.tobytes()
-        if key not in memo:
-            memo[key] = geo.compose(L, self.matrix)
-            memo[key].setflags(write=False)
-        return memo[key]
+        M = memo.pop(key, None)  # (put back last, as ``Node.box`` does)
+        if M is None:
+            M = geo.compose(L, self.matrix)
+            M.setflags(write=False)
+        memo[key] = M
+        return M
 
     def below(self, L: np.ndarray) -> tuple[Node, np.ndarray]:
         """The first node below this chain of affine nodes that is not one, and its frame seen

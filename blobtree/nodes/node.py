@@ -27,8 +27,9 @@ from __future__ import annotations
 
 import hashlib
 import inspect
+import itertools
 import weakref
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from functools import cached_property
 from typing import Any, ClassVar
 
@@ -123,6 +124,38 @@ def _rebuild(cls: type[Node], children: tuple[Node, ...], values: dict[str, Any]
 def arity_words(lo: int, hi: int | None) -> str:
     """How many children an ARITY allows, in words."""
     return f"at least {lo}" if hi is None else f"exactly {lo}" if lo == hi else f"{lo} to {hi}"
+
+
+#: The memos a node keeps by frame (a frame's bytes -> its value): its boxes, and an affine
+#: node's child frame (``Affine.framed``).
+FRAME_MEMOS = ("_box_memo", "_framed")
+#: The mark :func:`mark_frames` puts in them.
+_SINCE = object()
+
+
+def mark_frames(nodes: Iterable[Node]) -> list[dict]:
+    """Mark where the frames asked for from now on begin in the nodes' memos by frame
+    (:data:`FRAME_MEMOS`); return the memos marked, for :func:`drop_older_frames`."""
+    memos = {id(m): m for node in nodes for name in FRAME_MEMOS
+             if (m := node.__dict__.get(name))}
+    for memo in memos.values():
+        memo.pop(_SINCE, None)
+        memo[_SINCE] = None
+    return list(memos.values())
+
+
+def drop_older_frames(memos: list[dict]) -> None:
+    """Forget the frames of the marked memos not asked for since :func:`mark_frames`, where
+    any was (a memo untouched keeps them all): a subtree placed anew at each change (a spiral
+    changed) would otherwise gather a frame a change, without end.  Frames asked for go last
+    in a memo (``Node.box`` and ``Affine.framed`` put them back at the end)."""
+    for memo in memos:
+        if _SINCE not in memo:
+            continue
+        if next(reversed(memo)) is not _SINCE:  # (touched)
+            for key in list(itertools.takewhile(lambda k: k is not _SINCE, memo)):
+                del memo[key]
+        del memo[_SINCE]
 
 
 class Node:
@@ -367,12 +400,14 @@ class Node:
         """``_box``, computed once per frame (a shared subtree is not walked again)."""
         memo = self.box_memo()
         key = L.tobytes()
-        if key not in memo:
+        box = memo.pop(key, None)  # (and put back last: the frames last asked for come last)
+        if box is None:
             lo, hi = self._box(L)
-            memo[key] = (np.array(lo, dtype=float), np.array(hi, dtype=float))
-            for a in memo[key]:
+            box = (np.array(lo, dtype=float), np.array(hi, dtype=float))
+            for a in box:
                 a.setflags(write=False)
-        return memo[key]
+        memo[key] = box
+        return box
 
     def lipschitz(self) -> float:
         """A global bound on ``|grad f|`` (computed once)."""
