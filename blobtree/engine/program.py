@@ -558,11 +558,12 @@ def _split(boxes: list[geo.Box]) -> tuple[np.ndarray, np.ndarray]:
     group's box holds a point in proportion to its volume, and then all its boxes are tested),
     the boxes grown by a little so that flat ones still count; of equally good cuts, the most
     even (boxes all alike give a balanced tree).  Empty boxes count as points at the origin."""
-    lo, hi = np.nan_to_num(np.array(boxes, dtype=np.float64).transpose(1, 0, 2), nan=0.0,
-                           posinf=0.0, neginf=0.0)
+    lo, hi = np.array(boxes, dtype=np.float64).transpose(1, 0, 2)
+    if not (np.isfinite(lo).all() and np.isfinite(hi).all()):
+        lo, hi = (np.nan_to_num(a, nan=0.0, posinf=0.0, neginf=0.0) for a in (lo, hi))
     hi = np.maximum(hi, lo)
     n = len(boxes)
-    grow = 0.01 * float(np.max(hi.max(axis=0) - lo.min(axis=0)))
+    grow = 0.01 * float((hi.max(axis=0) - lo.min(axis=0)).max())
     # the three axes at once: [axis, place in that axis' order, coordinate]
     order = np.argsort(lo + hi, axis=0, kind="stable").T
     a, b = lo[order], hi[order]
@@ -572,14 +573,13 @@ def _split(boxes: list[geo.Box]) -> tuple[np.ndarray, np.ndarray]:
                    - np.minimum.accumulate(a[:, ::-1], axis=1)[:, :-1] + grow, 2)[:, ::-1]
     k = np.arange(1, n)
     cost = head * k + tail * (n - k)
-    best = (np.inf, None)
-    for axis in range(3):
-        c = cost[axis]
-        near = np.flatnonzero(c <= c.min() * (1.0 + 1e-9))  # ties: the most even cut
-        i = int(near[np.argmin(np.abs(2 * k[near] - n))])
-        if c[i] < best[0]:
-            best = (c[i], (order[axis, :i + 1], order[axis, i + 1:]))
-    return best[1]
+    # on each axis, of the cuts within a hair of its cheapest, the most even (the first such);
+    # then the cheapest axis (the first of equals)
+    near = cost <= cost.min(axis=1, keepdims=True) * (1.0 + 1e-9)
+    cut = np.argmin(np.where(near, np.abs(2 * k - n), n + 1), axis=1)
+    axis = int(np.argmin(cost[np.arange(3), cut]))
+    i = int(cut[axis])
+    return order[axis, :i + 1], order[axis, i + 1:]
 
 
 def program_of(tree: Node | Program, name: str = "tree") -> Program:
