@@ -315,7 +315,7 @@ def test_tidying_keeps_the_frames_asked_for_since_the_mark():
     """Of a memo by frame touched since the mark, the frames asked for since stay (asked
     again or new), the others go; an untouched memo keeps them all."""
     from blobtree import geometry as geo
-    from blobtree.nodes.node import drop_older_frames, mark_frames
+    from blobtree.nodes.node import drop_older_frames, frames_kept, mark_frames
 
     moved = [geo.affine(np.eye(3), (float(k), 0.0, 0.0)) for k in range(3)]
     touched, left = bt.Point(radius=1.0), bt.Point(radius=2.0)
@@ -323,6 +323,7 @@ def test_tidying_keeps_the_frames_asked_for_since_the_mark():
         for M in moved[:2]:
             node.box(M)
     memos = mark_frames([touched, left])
+    assert frames_kept(left.box_memo()) == 2  # (the mark is not a frame)
     touched.box(moved[0])  # asked again
     touched.box(moved[2])  # new
     drop_older_frames(memos)

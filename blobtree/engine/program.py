@@ -42,7 +42,7 @@ from ..nodes.layout import (
     SKIP,
     VALUE,
 )
-from ..nodes.node import ISO, REGISTRY, Node
+from ..nodes.node import ISO, REGISTRY, Node, frames_kept
 from ..nodes.warp import Warp
 from ..runtime.threads import parallel_for
 from . import batch as B
@@ -617,7 +617,8 @@ def compile_tree(tree: Node, reuse: Reuse | None = None) -> Program:
     em.emit(_value_root(tree, nodes), geo.IDENTITY)
     prog = em.program(tree)
     if reuse is not None:
-        boxes = {node.key: memo for node in nodes if len(memo := node.box_memo()) <= HANDED_BOXES}
+        boxes = {node.key: memo for node in nodes
+                 if frames_kept(memo := node.box_memo()) <= HANDED_BOXES}
         reuse.hold(prog, dict(em.images), em.spans, boxes, em.splits)
     return prog
 

@@ -144,6 +144,11 @@ def mark_frames(nodes: Iterable[Node]) -> list[dict]:
     return list(memos.values())
 
 
+def frames_kept(memo: dict) -> int:
+    """How many frames a memo by frame holds (:func:`mark_frames`' mark not counted)."""
+    return len(memo) - (_SINCE in memo)
+
+
 def drop_older_frames(memos: list[dict]) -> None:
     """Forget the frames of the marked memos not asked for since :func:`mark_frames`, where
     any was (a memo untouched keeps them all): a subtree placed anew at each change (a spiral
