@@ -241,29 +241,39 @@ def test_a_program_compiled_with_reuse_is_the_one_compiled_afresh():
         assert reused.depth == fresh.depth and len(reuse.spans) > 10
 
 
-def test_what_a_change_compiles_again_does_not_depend_on_the_changes_before(monkeypatch):
-    """A part copied whole by one compile is still there in parts for the next: after a change
-    of the whorls (the varices copied whole), a change of the varices' spines compiles again
-    what it compiles right after the whorls' change was compiled afresh."""
+@pytest.mark.parametrize("spec, first, then", [
+    (SMALL, ("whorls.point_radius", 1.3), ("varices.spine_length", 1.0)),
+    (replace(SMALL, bump_sets=1, canal_sections=1), ("bumps.size", 0.2),
+     ("whorls.point_radius", 1.3)),
+])
+def test_what_a_change_compiles_again_does_not_depend_on_the_changes_before(monkeypatch, spec,
+                                                                            first, then):
+    """A part copied whole by one compile is still there in parts for the next, its groups'
+    splits with it: after a change of one control (the varices, or the bumps, copied whole), a
+    change of another compiles again what it compiles right after the first change was
+    compiled afresh, and splits the same groups."""
     from blobtree.engine import program
     from blobtree.engine.program import Reuse, compile_tree
 
-    made = []
-    emit_new = program._Emitter.emit_new
+    made, splits = [], []
+    emit_new, split = program._Emitter.emit_new, program._split
     monkeypatch.setattr(program._Emitter, "emit_new",
                         lambda self, node, M, look: made.append(node) or emit_new(self, node, M,
                                                                                    look))
-    whorls = with_control(SMALL, "whorls.point_radius", 1.3)
-    both = with_control(whorls, "varices.spine_length", 1.0)
+    monkeypatch.setattr(program, "_split", lambda boxes: splits.append(boxes) or split(boxes))
+    changed = with_control(spec, *first)
+    both = with_control(changed, *then)
     counts = []
-    for history in ((SMALL, whorls), (whorls,)):
+    for history in ((spec, changed), (changed,)):
         reuse = Reuse()
-        for spec in history:
-            compile_tree(bt.models.shell(spec), reuse)
+        for step in history:
+            compile_tree(bt.models.shell(step), reuse)
         made.clear()
+        splits.clear()
         compile_tree(bt.models.shell(both), reuse)
-        counts.append(len(made))
-    assert counts[0] == counts[1] < 0.5 * len(compile_tree(bt.models.shell(both)).code)
+        counts.append((len(made), len(splits)))
+    assert counts[0] == counts[1]  # the same subtrees emitted anew, the same groups split
+    assert counts[0][0] < 0.5 * len(compile_tree(bt.models.shell(both)).code)
 
 
 def test_boxes_handed_on_do_not_grow_with_the_changes():

@@ -234,8 +234,9 @@ HANDED_BOXES = 2
 #: (node key, frame, look) -> (code start, code end, params start, params end, box): where a
 #: compile put each subtree
 Spans = dict[tuple[str, bytes, int], tuple[int, int, int, int, geo.Box]]
-#: (children's keys, frame) -> the two groups :func:`_split` made of them
-Splits = dict[tuple[tuple[str, ...], bytes], tuple[np.ndarray, np.ndarray]]
+#: (children's keys, frame) -> where a compile met them (an instruction inside their
+#: operator's run), and the two groups :func:`_split` made of them
+Splits = dict[tuple[tuple[str, ...], bytes], tuple[int, tuple[np.ndarray, np.ndarray]]]
 
 
 class Reuse:
@@ -250,9 +251,11 @@ class Reuse:
         #: node key -> its boxes by frame (``Node.box``'s memo), handed to equal nodes
         self.boxes: dict[str, dict[bytes, geo.Box]] = {}
         self.splits: Splits = {}
-        #: the spans' keys in code order, and their code starts (:meth:`inside`)
+        #: the spans' and the splits' keys in code order, and where they start (:meth:`inside`)
         self._ordered: list[tuple[str, bytes, int]] = []
         self._starts = np.zeros(0, dtype=np.int64)
+        self._split_order: list[tuple[tuple[str, ...], bytes]] = []
+        self._split_starts = np.zeros(0, dtype=np.int64)
 
     def hold(self, program: Program, images: dict[str, int],
              spans: Spans, boxes: dict[str, dict[bytes, geo.Box]], splits: Splits) -> None:
@@ -262,18 +265,25 @@ class Reuse:
         self.boxes, self.splits = boxes, splits
         self._ordered = sorted(spans, key=lambda key: spans[key][0])
         self._starts = np.array([spans[key][0] for key in self._ordered], dtype=np.int64)
+        self._split_order = sorted(splits, key=lambda key: splits[key][0])
+        self._split_starts = np.array([splits[key][0] for key in self._split_order],
+                                      dtype=np.int64)
 
-    def inside(self, c0: int, c1: int, dc: int, dp: int) -> Spans:
-        """The spans of the subtrees within instructions c0:c1 (a subtree's instructions are
-        one run, inside any run that holds its first), moved by dc instructions and dp
-        parameters: where they lie once :meth:`_Emitter.copy` has copied that run, so that a
-        subtree copied whole in one compile still has its parts to copy in the next."""
+    def inside(self, c0: int, c1: int, dc: int, dp: int) -> tuple[Spans, Splits]:
+        """The spans of the subtrees and the splits of the groups within instructions c0:c1 (a
+        subtree's instructions are one run, inside any run that holds its first), moved by dc
+        instructions and dp parameters: where they lie once :meth:`_Emitter.copy` has copied
+        that run, so that a subtree copied whole in one compile still has its parts to copy,
+        and its groups' splits, in the next."""
         i, j = np.searchsorted(self._starts, (c0, c1))
         moved = {}
         for key in self._ordered[i:j]:
             a, b, q0, q1, box = self.spans[key]
             moved[key] = (a + dc, b + dc, q0 + dp, q1 + dp, box)
-        return moved
+        i, j = np.searchsorted(self._split_starts, (c0, c1))
+        splits = {key: (self.splits[key][0] + dc, self.splits[key][1])
+                  for key in self._split_order[i:j]}
+        return moved, splits
 
 
 class _Emitter:
@@ -355,7 +365,9 @@ class _Emitter:
         the end, moved as :meth:`repeat` moves them (the images lie where they lay)."""
         prog = self.reuse.program
         dc, dp = len(self.code) - c0, self.base + len(self.params) - p0
-        self.spans.update(self.reuse.inside(c0, c1, dc, dp))
+        spans, splits = self.reuse.inside(c0, c1, dc, dp)
+        self.spans.update(spans)
+        self.splits.update(splits)
         rows = prog.code[c0:c1].copy()
         rows[:, OFFSET] += dp
         rows[:, SKIP] += dc
@@ -432,12 +444,12 @@ class _Emitter:
     def split(self, children: list[Node], M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """:func:`_split` of the children's boxes, as the reused compile split them if the
         same children met the same frame there."""
-        key = None if self.reuse is None else (tuple(c.key for c in children), M.tobytes())
-        parts = None if key is None else self.reuse.splits.get(key)
-        if parts is None:
-            parts = _split([c.box(M) for c in children])
-        if key is not None:
-            self.splits[key] = parts
+        if self.reuse is None:
+            return _split([c.box(M) for c in children])
+        key = (tuple(c.key for c in children), M.tobytes())
+        known = self.splits.get(key) or self.reuse.splits.get(key)
+        parts = _split([c.box(M) for c in children]) if known is None else known[1]
+        self.splits[key] = (len(self.code), parts)
         return parts
 
     def primitive(self, node: Primitive, M: np.ndarray, look: int) -> geo.Box:
