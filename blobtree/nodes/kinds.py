@@ -14,7 +14,7 @@ from ..checks import Choice
 from ..fields import FALLOFFS, SLOPE, falloff_array
 from .kernels import LIPSCHITZ_RULES
 from .layout import Layout
-from .node import DEFAULT_COLOR, Node, Result
+from .node import DEFAULT_COLOR, Node, Result, by_frame
 from .params import Param
 
 FALLOFF_PARAM = Param("falloff", Choice(tuple(FALLOFFS)), "soft_object",
@@ -181,14 +181,12 @@ class Affine(Unary):
     def framed(self, L: np.ndarray) -> np.ndarray:
         """The child's frame seen through L (this node -> frame): ``compose(L, matrix)``, read-
         only, computed once per frame (boxes and the compiler both ask for it)."""
-        memo = self.memo("_framed", dict)
-        key = L.tobytes()
-        M = memo.pop(key, None)  # (put back last, as ``Node.box`` does)
-        if M is None:
+        def make() -> np.ndarray:
             M = geo.compose(L, self.matrix)
             M.setflags(write=False)
-        memo[key] = M
-        return M
+            return M
+
+        return by_frame(self.memo("_framed", dict), L, make)
 
     def below(self, L: np.ndarray) -> tuple[Node, np.ndarray]:
         """The first node below this chain of affine nodes that is not one, and its frame seen

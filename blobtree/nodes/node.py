@@ -144,6 +144,17 @@ def mark_frames(nodes: Iterable[Node]) -> list[dict]:
     return list(memos.values())
 
 
+def by_frame(memo: dict, L: np.ndarray, make: Callable[[], Any]) -> Any:
+    """The value a memo by frame holds for frame L, made by ``make`` the first time; either
+    way put back last (the frames last asked for come last, for :func:`drop_older_frames`)."""
+    key = L.tobytes()
+    value = memo.pop(key, None)
+    if value is None:
+        value = make()
+    memo[key] = value
+    return value
+
+
 def frames_kept(memo: dict) -> int:
     """How many frames a memo by frame holds (:func:`mark_frames`' mark not counted)."""
     return len(memo) - (_SINCE in memo)
@@ -403,16 +414,14 @@ class Node:
 
     def box(self, L: np.ndarray) -> geo.Box:
         """``_box``, computed once per frame (a shared subtree is not walked again)."""
-        memo = self.box_memo()
-        key = L.tobytes()
-        box = memo.pop(key, None)  # (and put back last: the frames last asked for come last)
-        if box is None:
+        def make() -> geo.Box:
             lo, hi = self._box(L)
             box = (np.array(lo, dtype=float), np.array(hi, dtype=float))
             for a in box:
                 a.setflags(write=False)
-        memo[key] = box
-        return box
+            return box
+
+        return by_frame(self.box_memo(), L, make)
 
     def lipschitz(self) -> float:
         """A global bound on ``|grad f|`` (computed once)."""
