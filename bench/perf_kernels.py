@@ -8,7 +8,10 @@ renders, and the top functions are printed (a function's share includes what LLV
 it).  Needs ``perf`` (Debian package ``linux-perf``).
 
     python bench/perf_kernels.py [--model murex] [--size 512] [--no-shadows] [--look studio]
-                                 [--top 25]
+                                 [--top 25] [--rect X0 Y0 X1 Y1 [--repeat 4]]
+
+``--rect`` samples only that rectangle of the studio picture, rendered ``--repeat`` times on
+one thread (``profile_tiles.py``'s renderer): where a slow part of the picture spends its time.
 """
 
 from __future__ import annotations
@@ -25,6 +28,9 @@ import tempfile
 import time
 
 os.environ["NUMBA_CACHE_DIR"] = tempfile.mkdtemp(prefix="blobtree-perf-")  # before numba loads
+
+import numba  # noqa: E402
+from profile_tiles import check_rect, rect_renderer  # noqa: E402
 
 from blobtree.cli.scenes import resolve_scene  # noqa: E402
 from blobtree.render import LOOKS, render  # noqa: E402
@@ -94,28 +100,49 @@ def main() -> None:
     ap.add_argument("--look", default="studio", choices=sorted(LOOKS))
     ap.add_argument("--no-shadows", action="store_true")
     ap.add_argument("--top", type=int, default=25)
+    ap.add_argument("--rect", type=int, nargs=4, metavar=("X0", "Y0", "X1", "Y1"))
+    ap.add_argument("--repeat", type=int, default=4)
     args = ap.parse_args()
+    check_rect(ap, args.rect, args.size)
+    if args.rect and args.look != "studio":
+        ap.error(f"--rect renders the studio look, got --look {args.look}")
+    if args.repeat < 1:
+        ap.error(f"--repeat must be at least 1, got {args.repeat}")
     perf = shutil.which("perf")
     if perf is None:
         sys.exit("perf not found: install the Debian package linux-perf")
     tree = resolve_scene(args.model)
     options = dict(shadows=not args.no_shadows, look=args.look, progress=False)
     t0 = time.perf_counter()
-    render(tree, 32, 32, **options)
+    if args.rect:
+        numba.set_num_threads(1)
+        draw = rect_renderer(args.model, args.size, not args.no_shadows)
+
+        def picture() -> None:
+            for _ in range(args.repeat):
+                draw(*args.rect)
+    else:
+        render(tree, 32, 32, **options)
+
+        def picture() -> None:
+            render(tree, args.size, args.size, **options)
     print(f"compiled in {time.perf_counter() - t0:.0f} s; {write_perf_map()} functions mapped")
     data = os.path.join(tempfile.mkdtemp(prefix="blobtree-perf-"), "perf.data")
     rec = subprocess.Popen([perf, "record", "-q", "-F", "2000", "-p", str(os.getpid()), "-o",
                             data], stderr=subprocess.DEVNULL)
     time.sleep(0.5)  # (perf attaches)
     t0 = time.perf_counter()
-    render(tree, args.size, args.size, **options)
+    picture()
     seconds = time.perf_counter() - t0
     rec.send_signal(signal.SIGINT)
     rec.wait()
     report = subprocess.run([perf, "report", "-i", data, "--sort", "symbol", "--stdio", "-q"],
                             capture_output=True, text=True).stdout
+    what = (f"pixels {args.rect} {args.repeat} times on one thread" if args.rect
+            else "the whole picture")
     print(f"{args.model} {args.size}x{args.size}, {args.look}, shadows "
-          f"{'off' if args.no_shadows else 'on'}: {seconds:.2f} s; share of the samples:")
+          f"{'off' if args.no_shadows else 'on'}, {what}: {seconds:.2f} s; share of the "
+          f"samples:")
     for line in report.splitlines()[:args.top]:
         m = re.match(r"\s*([\d.]+%)\s+\[(.)\]\s+(.*?)[\s-]*$", line)
         if m:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import time
+from collections.abc import Callable
 
 import numba
 import numpy as np
@@ -20,6 +21,31 @@ from blobtree.cli.scenes import resolve_scene
 from blobtree.render import LOOKS, RenderSettings, trace_rect
 from blobtree.render.camera import seen_camera
 from blobtree.render.shade import default_lights, pack_lights
+
+
+def rect_renderer(model: str, size: int, shadows: bool) -> Callable[..., None]:
+    """``draw(x0, y0, x1, y1)``: renders that rectangle of ``model``'s size x size studio
+    picture (one sample a pixel), its kernels compiled or loaded first."""
+    tree = resolve_scene(model)
+    prog = tree.program()
+    cam = seen_camera(tree, prog, size, size)
+    lights = pack_lights(default_lights(cam))
+    settings = RenderSettings(width=size, height=size, samples=1, shadows=shadows,
+                              **LOOKS["studio"])
+    packed = cam.packed(size, size)
+
+    def draw(x0: int, y0: int, x1: int, y1: int) -> None:
+        trace_rect(prog, packed, lights, settings, x0, y0, x1, y1)
+
+    draw(0, 0, 1, 1)
+    return draw
+
+
+def check_rect(ap: argparse.ArgumentParser, rect: list[int] | None, size: int) -> None:
+    """Refuse a ``--rect`` outside the picture."""
+    if rect and not (0 <= rect[0] < rect[2] <= size and 0 <= rect[1] < rect[3] <= size):
+        ap.error(f"--rect must be X0 Y0 X1 Y1 with 0 <= X0 < X1 <= --size ({size}) and the "
+                 f"same for Y, got {rect}")
 
 
 def main() -> None:
@@ -31,29 +57,19 @@ def main() -> None:
     ap.add_argument("--rect", type=int, nargs=4, metavar=("X0", "Y0", "X1", "Y1"))
     ap.add_argument("--repeat", type=int, default=8)
     args = ap.parse_args()
-    if args.rect and not (0 <= args.rect[0] < args.rect[2] <= args.size
-                          and 0 <= args.rect[1] < args.rect[3] <= args.size):
-        ap.error(f"--rect must be X0 Y0 X1 Y1 with 0 <= X0 < X1 <= --size ({args.size}) and "
-                 f"the same for Y, got {args.rect}")
+    check_rect(ap, args.rect, args.size)
     if args.repeat < 1:
         ap.error(f"--repeat must be at least 1, got {args.repeat}")
     if args.size < args.tile or args.tile < 1:
         ap.error(f"--size ({args.size}) must be at least --tile ({args.tile}), both positive")
     numba.set_num_threads(1)
-    tree = resolve_scene(args.model)
-    prog = tree.program()
     w = args.size
-    cam = seen_camera(tree, prog, w, w)
-    lights = pack_lights(default_lights(cam))
-    settings = RenderSettings(width=w, height=w, samples=1, shadows=not args.no_shadows,
-                              **LOOKS["studio"])
-    packed = cam.packed(w, w)
-    trace_rect(prog, packed, lights, settings, 0, 0, 1, 1)  # compile or load the kernels first
+    draw = rect_renderer(args.model, w, not args.no_shadows)
     if args.rect:
         times = []
         for _ in range(args.repeat):
             start = time.process_time()
-            trace_rect(prog, packed, lights, settings, *args.rect)
+            draw(*args.rect)
             times.append(time.process_time() - start)
         print(f"{args.model} {w}x{w}, pixels {args.rect}, shadows "
               f"{'off' if args.no_shadows else 'on'}, one thread: best of {args.repeat} "
@@ -65,8 +81,7 @@ def main() -> None:
         for i in range(n):
             x0, y0 = i * args.tile, j * args.tile
             start = time.perf_counter()
-            trace_rect(prog, packed, lights, settings, x0, y0, min(x0 + args.tile, w),
-                       min(y0 + args.tile, w))
+            draw(x0, y0, min(x0 + args.tile, w), min(y0 + args.tile, w))
             seconds[j, i] = time.perf_counter() - start
     np.set_printoptions(linewidth=200, precision=2, suppress=True)
     print(f"{args.model} {w}x{w}, shadows {'off' if args.no_shadows else 'on'}, one thread: "
