@@ -111,8 +111,6 @@ def main() -> None:
     perf = shutil.which("perf")
     if perf is None:
         sys.exit("perf not found: install the Debian package linux-perf")
-    tree = resolve_scene(args.model)
-    options = dict(shadows=not args.no_shadows, look=args.look, progress=False)
     t0 = time.perf_counter()
     if args.rect:
         numba.set_num_threads(1)
@@ -122,6 +120,8 @@ def main() -> None:
             for _ in range(args.repeat):
                 draw(*args.rect)
     else:
+        tree = resolve_scene(args.model)
+        options = dict(shadows=not args.no_shadows, look=args.look, progress=False)
         render(tree, 32, 32, **options)
 
         def picture() -> None:
