@@ -139,6 +139,28 @@ def test_an_idle_explorer_collects_garbage(explorer):
     assert "blobtree-explore" in full
 
 
+def test_what_an_idle_explorer_keeps_is_left_out_of_collections_until_closed():
+    """The idle collection freezes what survives it (the next one walks only what is new);
+    closing the explorer hands it back to the collector."""
+    gc.unfreeze()
+    ex = bt.explore(SMALL, size=48, coarse=32, settle=0.0)
+    try:
+        assert ex.wait()
+        deadline = time.monotonic() + 10.0
+        while gc.get_freeze_count() == 0 and time.monotonic() < deadline:
+            time.sleep(0.01)
+        frozen = gc.get_freeze_count()
+        assert frozen > 0
+        ex.controls["canal.tilt"].value = SMALL.canal_tilt + 5.0
+        assert ex.wait()
+        while gc.get_freeze_count() == frozen and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert gc.get_freeze_count() > frozen  # (the new build's survivors frozen too)
+    finally:
+        ex.close()
+    assert gc.get_freeze_count() == 0
+
+
 def test_the_view_turns_without_rebuilding_the_shell(explorer):
     before = explorer.image.value
     explorer.controls["turn"].value = 90.0
