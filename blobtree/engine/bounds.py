@@ -19,6 +19,7 @@ import math
 from numba import types
 
 from ..nodes.kernel_math import (
+    fo,
     gaps,
     map_box,
     map_point,
@@ -30,10 +31,13 @@ from ..nodes.layout import (
     ABOVE,
     BELOW,
     BOUND,
+    FALLOFF,
     FALLS,
     FIELD,
     FRAME_NORM,
+    LEAST,
     MAP_NORM,
+    MOST,
     OFFSET,
     OP,
     POINT,
@@ -42,6 +46,7 @@ from ..nodes.layout import (
     SAVED_BOX,
     VALUE,
 )
+from ..nodes.node import ISO
 from ..runtime.jit import kernel, linked
 from .dispatch import (
     LIPSCHITZ,
@@ -58,6 +63,7 @@ from .dispatch import (
     prim_lipschitz,
     prim_rise,
     prim_s,
+    prim_span,
 )
 from .point import (
     PROGRAM,
@@ -189,6 +195,43 @@ def _op_moves(op, p, o, vs, b, e, bound):
 
 
 @kernel(inline="always")
+def _prim_range(prog, i, cur):
+    """The least and the most primitive i's field can be over the region ``cur`` (its frame's
+    coordinates): the falloff at the most and the least r / R there (its ``span``)."""
+    code, p = prog[0], prog[1]
+    op, o = code[i, OP], code[i, OFFSET]
+    cx, cy, cz, hx, hy, hz = map_box(p, o, cur[0], cur[1], cur[2], cur[3], cur[4], cur[5])
+    rmin, rmax = prim_span(op, p, o, cx, cy, cz, hx, hy, hz, cur[6] * p[o + MAP_NORM])
+    fid = int(p[o + FALLOFF])
+    return (fo(fid, rmax * rmax) if rmax < 1.0 else 0.0,
+            fo(fid, rmin * rmin) if rmin < 1.0 else 0.0)
+
+
+@kernel(inline="always")
+def _combine_ends(op, p, o, vs, b, k, least):
+    """Operator op's field with each child at the end of its range vs[j, LEAST:MOST + 1] that
+    makes it least (``least``) or most: the end it rises toward, or away from where it falls
+    with that child (``MONOTONE``)."""
+    for j in range(b, b + k):
+        rises = (MONOTONE_FIRST[op] if j == b else MONOTONE_REST[op]) > 0
+        vs[j, FIELD] = vs[j, LEAST] if rises == least else vs[j, MOST]
+    combine(op, vs, b, k, p, o, VALUE)
+    return vs[b, FIELD]
+
+
+@kernel(inline="always")
+def _op_range(op, p, o, vs, b, k):
+    """The least and the most operator op's field can be over the region, from its children's
+    ranges: a field that moves one way with each child (``MONOTONE``) is least and most at
+    their ends (:func:`_combine_ends`, which leaves the children's values, and the result's,
+    overwritten); (-inf, inf) for one that does not."""
+    for j in range(b, b + k):
+        if (MONOTONE_FIRST[op] if j == b else MONOTONE_REST[op]) == 0:
+            return -math.inf, math.inf
+    return (_combine_ends(op, p, o, vs, b, k, True), _combine_ends(op, p, o, vs, b, k, False))
+
+
+@kernel(inline="always")
 def _region(at):
     """The region of ``at``: its box and the ball about the box's centre."""
     return (at[LO], at[LO + 1], at[LO + 2], at[HI], at[HI + 1], at[HI + 2],
@@ -283,8 +326,10 @@ def _b_start(prog, at, st):
 def _b_primitive(prog, at, i, cur, pp, st, sp):
     vs = st[0]
     vs[sp, FIELD] = vs[sp, BOUND] = vs[sp, BELOW] = vs[sp, ABOVE] = 0.0
+    vs[sp, LEAST] = vs[sp, MOST] = 0.0
     if not misses(prog[2], i, cur[:6]):
         vs[sp, BOUND] = _prim_bound(prog, i, at, cur, pp)
+        vs[sp, LEAST], vs[sp, MOST] = _prim_range(prog, i, cur)
         if not outside(prog[2], i, cur[7], cur[8], cur[9]):
             push_primitive(prog, i, cur[7], cur[8], cur[9], VALUE, vs, sp)
 
@@ -298,13 +343,23 @@ def _b_operator(prog, at, i, cur, st, b, k):
     if bound < 0.0:
         bound = _rule(op, p, o, vs, BOUND, b, b + k)
     combine(op, vs, b, k, p, o, VALUE)
+    f = vs[b, FIELD]
+    least, most = _op_range(op, p, o, vs, b, k)
+    vs[b, FIELD] = f
+    least, most = max(least, f - bound * reach), min(most, f + bound * reach)
+    if most < ISO:  # below ISO all over the region
+        below = math.inf
+    if least > ISO:
+        above = math.inf
     vs[b, BOUND], vs[b, BELOW], vs[b, ABOVE] = bound, below, above
+    vs[b, LEAST], vs[b, MOST] = least, most
 
 
 @hook
 def _b_zero(at, st, sp):
     vs = st[0]
     vs[sp, FIELD] = vs[sp, BOUND] = vs[sp, BELOW] = vs[sp, ABOVE] = 0.0
+    vs[sp, LEAST] = vs[sp, MOST] = 0.0
 
 
 @hook

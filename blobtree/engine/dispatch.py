@@ -114,10 +114,11 @@ def _dispatcher(name: str, args: str, kind: str, case: str, miss: str) -> str:
 #: Kernels compiled into their dispatcher (the rest are called): a primitive's field (the batch
 #: loops drop the gradient they do not use; one copy serves them and the point walk), the bounds
 #: the ray tracer asks for at every step, and the operators, whose work is small next to a call.
-INLINE_KERNELS = ("s", "along", "lipschitz", "rise", "combine", "rows", "bound", "map")
+INLINE_KERNELS = ("s", "along", "lipschitz", "rise", "span", "combine", "rows", "bound", "map")
 #: Dispatchers compiled into their one caller (``warp_map``'s, ``point.apply_warp``, is itself
 #: compiled into its callers).
-INLINE_DISPATCHERS = ("prim_s", "prim_along", "prim_lipschitz", "prim_rise", "combine",
+INLINE_DISPATCHERS = ("prim_s", "prim_along", "prim_lipschitz", "prim_rise", "prim_span",
+                      "combine",
                       "combine_rows", "op_bound", "warp_map")
 
 
@@ -141,6 +142,8 @@ def _kernels() -> dict[str, object]:
 _PRIM = "p, o, qx, qy, qz"
 _DEFAULT_LIPSCHITZ = ("s = K.s(p, o, cx, cy, cz)[0]\n"
                       "return distance_bound(p, o, lip, s, hx, hy, hz, r)")
+_DEFAULT_SPAN = ("s = K.s(p, o, cx, cy, cz)[0]\n"
+                 "return distance_span(p, o, s, hx, hy, hz, r)")
 _ROWS = """a = affine(p, o)
 for k in range(nb):
     qx, qy, qz = map_with(a, pts[pp, 0, k], pts[pp, 1, k], pts[pp, 2, k])
@@ -173,6 +176,10 @@ SOURCE = "".join([
                 lambda c: ("return K.rise(p, o, box[0], box[1], box[2], box[3], box[4], "
                            "box[5], cone[0], cone[1], cone[2], cone[3])" if c.KERNELS.rise
                            else "return -1.0"), "return NAN"),
+    _dispatcher("prim_span", "p, o, cx, cy, cz, hx, hy, hz, r", "primitive",
+                lambda c: ("return K.span(p, o, cx, cy, cz, hx, hy, hz, r)" if c.KERNELS.span
+                           else "return 0.0, INF" if c.KERNELS.lipschitz else _DEFAULT_SPAN),
+                "return NAN, NAN"),
     _dispatcher("prim_rows", "fid, p, o, pts, pp, vs, sp, nb", "primitive", _ROWS, "return"),
     _dispatcher("combine", "vs, b, k, p, o, mode", "operator",
                 "K.combine(vs, b, k, p, o, mode)\nreturn", "return"),
@@ -190,14 +197,23 @@ SOURCE = "".join([
 ])
 
 
+@kernel(inline="always")
+def distance_span(p, o, s, hx, hy, hz, r):
+    """The default span of a primitive with a constant field radius R: least and most of r / R
+    over a region around a centre with s = d^2 / R^2 (the distance to the skeleton moves by at
+    most the region's radius), within the box of half extents h and the ball of radius r."""
+    d = math.sqrt(s)
+    rho = min(math.sqrt(hx * hx + hy * hy + hz * hz), r) / p[o + RADIUS]
+    return max(d - rho, 0.0), d + rho
+
+
 @kernel
 def distance_bound(p, o, lip, s, hx, hy, hz, r):
     """The default box bound of a primitive with a constant field radius R: the distance-aware
-    bound (``kernel_math.distance_lipschitz``) for a region around a centre with s = d^2 / R^2,
-    within the box of half extents h and the ball of radius r there."""
-    radius = p[o + RADIUS]
-    return kernel_math.distance_lipschitz(lip, int(p[o + FALLOFF]), radius, math.sqrt(s) * radius,
-                                          min(math.sqrt(hx * hx + hy * hy + hz * hz), r))
+    bound (segment tracing's, Galin et al. 2020), the falloff's steepest slope over the
+    region's distances (:func:`distance_span`), scaled from the global bound ``lip``."""
+    rmin, rmax = distance_span(p, o, s, hx, hy, hz, r)
+    return lip * kernel_math.slope_at(int(p[o + FALLOFF]), rmin, rmax)
 
 
 def _build() -> dict[str, object]:
@@ -205,12 +221,14 @@ def _build() -> dict[str, object]:
     their source file, so the generated dispatchers are cached like any other kernel (and
     ``jit.engine_key`` recompiles them whenever a node type's module changes)."""
     namespace = {"__name__": __name__, "NAN": math.nan, "distance_bound": distance_bound,
+                 "distance_span": distance_span, "INF": math.inf,
                  "fo": kernel_math.fo, "affine": kernel_math.affine,
                  "map_with": kernel_math.map_with, "to_canonical": kernel_math.to_canonical,
                  "from_canonical": kernel_math.from_canonical,
                  **_kernels()}
     exec(compile(SOURCE, __file__, "exec"), namespace)  # noqa: S102 (our own generated code)
-    names = ("prim_s", "prim_uv", "prim_lipschitz", "prim_along", "prim_rise", "prim_rows",
+    names = ("prim_s", "prim_uv", "prim_lipschitz", "prim_along", "prim_rise", "prim_span",
+             "prim_rows",
              "combine", "op_bound", "combine_rows", "warp_map", "warp_rows", "paint")
     return {name: (_inlined(namespace[name]) if name in INLINE_DISPATCHERS
                    else kernel(namespace[name]))
@@ -225,6 +243,9 @@ prim_uv = _D["prim_uv"]
 #: bound on ``|grad f|`` over a local region (a box and a ball about its centre):
 #: prim_lipschitz(op, p, o, lip, cx, cy, cz, hx, hy, hz, r)
 prim_lipschitz = _D["prim_lipschitz"]
+#: least and most of r / R over a local region (as prim_lipschitz takes it), whose falloffs
+#: are the most and least the field can be there: prim_span(op, p, o, cx, cy, cz, hx, hy, hz, r)
+prim_span = _D["prim_span"]
 #: bound on |df/dt| along a frame segment, or -1: prim_along(op, p, o, ox.., dx.., length)
 prim_along = _D["prim_along"]
 #: bound on how fast a primitive's field rises in a frame box along a cone of directions, or -1:

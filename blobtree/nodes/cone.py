@@ -48,10 +48,11 @@ def cone_uv(p, o, qx, qy, qz):
     return kernel_math.axis_uv(p, o + A, o + FRAME, qx, qy, qz, True)
 
 
-@kernel
-def cone_lipschitz(p, o, lip, cx, cy, cz, hx, hy, hz, r):
-    """The distance-aware bound with R(t) bounded over the t the region (within the box and
-    the ball of radius r about its centre) can reach."""
+@kernel(inline="always")
+def _cone_reach(p, o, cx, cy, cz, hx, hy, hz, r):
+    """Over the region (within the box and the ball of radius r about its centre): the least
+    and most distance from the axis segment over R(t), and the least R(t), for the t it can
+    reach (the clamped projection moves by at most the region's radius over the length)."""
     a = o + A
     ax, ay, az = p[a], p[a + 1], p[a + 2]
     ux, uy, uz = p[o + B] - ax, p[o + B + 1] - ay, p[o + B + 2] - az
@@ -66,13 +67,26 @@ def cone_lipschitz(p, o, lip, cx, cy, cz, hx, hy, hz, r):
     t1 = min(max(tc + rho / length, 0.0), 1.0)
     r0, r1 = ra + t0 * (rb - ra), ra + t1 * (rb - ra)
     rlo, rhi = min(r0, r1), max(r0, r1)
+    return max(d - rho, 0.0) / rhi, (d + rho) / rlo, rlo
+
+
+@kernel(inline="always")
+def cone_span(p, o, cx, cy, cz, hx, hy, hz, r):
+    """Least and most of r / R(t) over the region (:func:`_cone_reach`)."""
+    rmin, rmax, _ = _cone_reach(p, o, cx, cy, cz, hx, hy, hz, r)
+    return rmin, rmax
+
+
+@kernel
+def cone_lipschitz(p, o, lip, cx, cy, cz, hx, hy, hz, r):
+    """The distance-aware bound with R(t) bounded over the t the region can reach."""
+    rmin, rmax, rlo = _cone_reach(p, o, cx, cy, cz, hx, hy, hz, r)
     # lip = SLOPE (1 + |dR| / L) / min(ra, rb) * |A|: rescale its 1 / min(ra, rb) to 1 / rlo
-    fid = int(p[o + FALLOFF])
-    return lip * kernel_math.slope_at(fid, max(d - rho, 0.0) / rhi, (d + rho) / rlo) \
-        * min(ra, rb) / rlo
+    ra, rb = p[o + RA], p[o + RB]
+    return lip * kernel_math.slope_at(int(p[o + FALLOFF]), rmin, rmax) * min(ra, rb) / rlo
 
 
-KERNELS = PrimitiveKernels(s=cone_s, uv=cone_uv, lipschitz=cone_lipschitz)
+KERNELS = PrimitiveKernels(s=cone_s, uv=cone_uv, lipschitz=cone_lipschitz, span=cone_span)
 
 
 @register

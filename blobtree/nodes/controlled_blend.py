@@ -16,7 +16,7 @@ import numpy as np
 
 from ..checks import Number
 from ..runtime.jit import kernel
-from .kernel_math import power, root
+from .kernel_math import field_range, power, root
 from .kernels import OperatorKernels
 from .kinds import Operator, operator_function
 from .layout import BOUND, COLOR, FIELD, GRAD, GRADIENT
@@ -125,11 +125,12 @@ def _group_gradient_colour(vs, b, p, q, f):
 def _candidate(vs, b, p, q, size, n, reach, kind):
     """One candidate of the max over the region (kind 0: pair at p[q:q + 2], 1: group with its
     exponent n, size and members at p[q:q + size], 2: the single child at p[q]): its lowest
-    and highest field there (from each member's f +- L reach) and its gradient bound."""
+    and highest field there (from each member's range, :func:`field_range`) and its
+    gradient bound."""
     low = high = bound = top = 0.0
     for i in range(size):
         j = b + int(p[q + i])
-        lo_j, hi_j = vs[j, FIELD] - vs[j, BOUND] * reach, vs[j, FIELD] + vs[j, BOUND] * reach
+        lo_j, hi_j = field_range(vs, j, reach)
         top = max(top, lo_j)
         low += lo_j
         high += max(hi_j, 0.0)
@@ -140,7 +141,7 @@ def _candidate(vs, b, p, q, size, n, reach, kind):
             bound = 0.0
             for i in range(size):
                 j = b + int(p[q + i])
-                hi_j = max(vs[j, FIELD] + vs[j, BOUND] * reach, 0.0)
+                hi_j = max(field_range(vs, j, reach)[1], 0.0)
                 bound += min(1.0, (hi_j / top) ** (n - 1.0)) * vs[j, BOUND]
     return low, high, bound
 

@@ -51,22 +51,29 @@ def difference_combine(vs, b, k, p, o, mode):
 @kernel
 def difference_bound(vs, b, k, p, o, reach):
     """Left to right, as :func:`difference_combine`: over the region the running min f and the
-    next term y = 1 - f_j stay within their values +- L reach; a term that stays at least the
-    rounding band above f leaves f as it is (its bound is dropped), one that stays that far
-    below replaces it (so does its bound), otherwise the bound is the larger of the two.  The
-    result stays below ISO as far as any term does (1 - f_j as far as f_j stays above)."""
+    next term y = 1 - f_j stay within their ranges (``kernel_math.field_range``; the running
+    min's also within its value +- its bound times reach, and at most r / 4 below the min of
+    its terms' ranges); a term that stays at least the rounding band above f leaves f as it is
+    (its bound is dropped), one that stays that far below replaces it (so does its bound),
+    otherwise the bound is the larger of the two.  The result stays below ISO as far as any
+    term does (1 - f_j as far as f_j stays above)."""
     r = p[o]
     f, bound = vs[b, FIELD], vs[b, BOUND]
+    f_lo, f_hi = kernel_math.field_range(vs, b, reach)
     below, above = kernel_math.safe_distances(vs, b)
     for j in range(b + 1, b + k):
         y, bound_y = 1.0 - vs[j, FIELD], vs[j, BOUND]
-        if y - bound_y * reach >= f + bound * reach + r:
+        least, most = kernel_math.field_range(vs, j, reach)
+        y_lo, y_hi = 1.0 - most, 1.0 - least
+        if y_lo >= f_hi + r:
             pass
-        elif f - bound * reach >= y + bound_y * reach + r:
+        elif f_lo >= y_hi + r:
             bound = bound_y
         else:
             bound = max(bound, bound_y)
         f = rounded_min(f, y, r)[0]
+        f_lo = max(min(f_lo, y_lo) - 0.25 * r, f - bound * reach)
+        f_hi = min(f_hi, y_hi, f + bound * reach)
         below_j, above_j = kernel_math.safe_distances(vs, j)
         # the (rounded) min stays above ISO as far as all terms do, if sharp (rounding lowers it)
         below, above = max(below, above_j), min(above, below_j)

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..fields import SLOPE_BY_ID, falloff, falloff_ds, falloff_peak
 from ..runtime.jit import kernel
-from .layout import ABOVE, BELOW, BOUND, COLOR, FALLOFF, FIELD, GRAD, MAP_NORM
+from .layout import ABOVE, BELOW, BOUND, COLOR, FALLOFF, FIELD, GRAD, LEAST, MAP_NORM, MOST
 from .node import ISO
 from .reference import TIE
 
@@ -222,15 +222,6 @@ def slope_at(fid, rmin, rmax):
 
 
 @kernel
-def distance_lipschitz(lip, fid, radius, d, rho):
-    """A primitive's bound over a box whose centre lies at distance d from the skeleton and
-    whose points lie within rho of its centre (segment tracing's distance-aware bound, Galin et
-    al. 2020): the falloff's steepest slope over distances [d - rho, d + rho], scaled from the
-    global bound ``lip``."""
-    return lip * slope_at(fid, max(d - rho, 0.0) / radius, (d + rho) / radius)
-
-
-@kernel
 def _wrap(i, n, mode):
     if mode == 0:
         return i % n
@@ -324,28 +315,35 @@ def safe_distances(vs, j):
     return max(below, vs[j, BELOW]), max(above, vs[j, ABOVE])
 
 
+@kernel(inline="always")
+def field_range(vs, j, reach):
+    """The least and the most the field of value-stack row j can be over a region of diameter
+    reach in the value-aware bound pass: within f_j +- L_j reach, and within the range the pass
+    found for it (vs[j, LEAST], vs[j, MOST]: from its primitives' distances)."""
+    f, spread = vs[j, FIELD], vs[j, BOUND] * reach
+    return max(f - spread, vs[j, LEAST]), min(f + spread, vs[j, MOST])
+
+
 @kernel
 def select_bound(vs, b, k, reach, largest):
     """Union's and intersection's bound over a region of diameter reach: child j stays within
-    f_j +- L_j reach there, so a child whose highest stays below another's lowest (union; the
-    reverse for intersection) never wins in the region and its bound L_j is dropped.  A max
-    stays below ISO as far as all its children do and above as far as any does (a min the
-    reverse)."""
+    its range there (:func:`field_range`), so a child whose highest stays below another's
+    lowest (union; the reverse for intersection) never wins in the region and its bound L_j is
+    dropped.  A max stays below ISO as far as all its children do and above as far as any does
+    (a min the reverse)."""
     edge = -math.inf if largest else math.inf  # the best of the children's worst cases
     all_below = all_above = math.inf
     any_below = any_above = 0.0
     for j in range(b, b + k):
-        if largest:
-            edge = max(edge, vs[j, FIELD] - vs[j, BOUND] * reach)
-        else:
-            edge = min(edge, vs[j, FIELD] + vs[j, BOUND] * reach)
+        low, high = field_range(vs, j, reach)
+        edge = max(edge, low) if largest else min(edge, high)
         below, above = safe_distances(vs, j)
         all_below, any_below = min(all_below, below), max(any_below, below)
         all_above, any_above = min(all_above, above), max(any_above, above)
     bound = 0.0
     for j in range(b, b + k):
-        reach_j = vs[j, BOUND] * reach
-        if (vs[j, FIELD] + reach_j >= edge) if largest else (vs[j, FIELD] - reach_j <= edge):
+        low, high = field_range(vs, j, reach)
+        if (high >= edge) if largest else (low <= edge):
             bound = max(bound, vs[j, BOUND])
     if largest:
         return bound, all_below, any_above

@@ -18,14 +18,19 @@ class PrimitiveKernels:
     segment, or -1 for none; optional ``rise(p, o, lox, loy, loz, hix, hiy, hiz, dx, dy, dz,
     spread)``: a bound on how fast the field can rise (df/dt, not |df/dt|) anywhere in the frame
     box [lo, hi] along any unit direction within distance ``spread`` of the unit vector d, or -1
-    for none (0 where the rays all move away from the skeleton: they only leave the primitive).
-    ``o`` is the primitive's params offset."""
+    for none (0 where the rays all move away from the skeleton: they only leave the primitive);
+    optional ``span(p, o, cx, cy, cz, hx, hy, hz, r)``: (least, most) of r / R over the local
+    region (as ``lipschitz`` takes it), whose falloffs are the most and the least the field
+    can be there (the field is the falloff of s = (r / R)^2); without it a primitive with no
+    ``lipschitz`` kernel has a constant radius R (as the default bound assumes), one with
+    its own has (0, inf): any value.  ``o`` is the primitive's params offset."""
 
     s: Callable
     uv: Callable
     lipschitz: Callable | None = None
     along: Callable | None = None
     rise: Callable | None = None
+    span: Callable | None = None
 
 
 @dataclass(frozen=True)

@@ -77,6 +77,9 @@ BOUND, BELOW, ABOVE = 4, 5, 6
 #: In the bound pass along rays: how fast a row's field can rise and fall along a cone of
 #: directions.
 RISES, FALLS = 7, 8
+#: In the value-aware bound pass: the least and the most a row's field can be anywhere in the
+#: region (its range), in the rise and fall columns that pass does not use.
+LEAST, MOST = 7, 8
 #: In the value-free bound pass, row pp's columns REGION .. REGION + 5 save the region (lo, hi)
 #: while a warp's frame is entered (the row's own values are not needed there).
 REGION = 1

@@ -36,10 +36,10 @@ def point_uv(p, o, qx, qy, qz):
     return kernel_math.turn(-dz, dx), math.acos(cos_t) / math.pi
 
 
-@kernel
-def point_lipschitz(p, o, lip, cx, cy, cz, hx, hy, hz, r):
-    """Nearest and farthest distances from the centre to the (local) region: to the box, per
-    axis, and to the ball of radius r about its centre; the tighter of each."""
+@kernel(inline="always")
+def point_span(p, o, cx, cy, cz, hx, hy, hz, r):
+    """Nearest and farthest distances from the centre to the (local) region, over R: to the
+    box, per axis, and to the ball of radius r about its centre; the tighter of each."""
     c = o + CENTER
     dmin2 = dmax2 = dc2 = 0.0
     for off, half in ((cx - p[c], hx), (cy - p[c + 1], hy), (cz - p[c + 2], hz)):
@@ -49,8 +49,14 @@ def point_lipschitz(p, o, lip, cx, cy, cz, hx, hy, hz, r):
         dc2 += off * off
     dc = math.sqrt(dc2)
     radius = p[o + RADIUS]
-    return lip * kernel_math.slope_at(int(p[o + FALLOFF]), max(math.sqrt(dmin2), dc - r) / radius,
-                                      min(math.sqrt(dmax2), dc + r) / radius)
+    return max(math.sqrt(dmin2), dc - r) / radius, min(math.sqrt(dmax2), dc + r) / radius
+
+
+@kernel
+def point_lipschitz(p, o, lip, cx, cy, cz, hx, hy, hz, r):
+    """The falloff's steepest slope over the region's distances (:func:`point_span`)."""
+    rmin, rmax = point_span(p, o, cx, cy, cz, hx, hy, hz, r)
+    return lip * kernel_math.slope_at(int(p[o + FALLOFF]), rmin, rmax)
 
 
 @kernel
@@ -110,7 +116,7 @@ class Point(Primitive):
     )
     LAYOUT = LAYOUT
     KERNELS = PrimitiveKernels(s=point_s, uv=point_uv, lipschitz=point_lipschitz,
-                               along=point_along, rise=point_rise)
+                               along=point_along, rise=point_rise, span=point_span)
 
     def pack(self):
         return LAYOUT.pack(center=self.center)

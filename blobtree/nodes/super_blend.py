@@ -8,7 +8,7 @@ import numpy as np
 
 from ..checks import Number
 from ..runtime.jit import kernel
-from .kernel_math import by_squaring, norm_of, power, root
+from .kernel_math import by_squaring, field_range, norm_of, power, root
 from .kernels import OperatorKernels
 from .kinds import Operator, operator_function
 from .layout import BOUND, COLOR, FIELD, GRAD, GRADIENT
@@ -67,12 +67,12 @@ def super_bound(vs, b, k, p, o, reach):
     n = p[o]
     low = 0.0
     for j in range(b, b + k):
-        low = max(low, vs[j, FIELD] - vs[j, BOUND] * reach)
+        low = max(low, field_range(vs, j, reach)[0])
     bound = 0.0
     for j in range(b, b + k):
         w = 1.0
         if low > 0.0:
-            w = min(1.0, (max(vs[j, FIELD] + vs[j, BOUND] * reach, 0.0) / low) ** (n - 1.0))
+            w = min(1.0, (max(field_range(vs, j, reach)[1], 0.0) / low) ** (n - 1.0))
         bound += w * vs[j, BOUND]
     return min(bound, norm_of(vs, b, b + k, BOUND, n)), 0.0, 0.0
 
