@@ -114,7 +114,8 @@ def _dispatcher(name: str, args: str, kind: str, case: str, miss: str) -> str:
 #: Kernels compiled into their dispatcher (the rest are called): a primitive's field (the batch
 #: loops drop the gradient they do not use; one copy serves them and the point walk), the bounds
 #: the ray tracer asks for at every step, and the operators, whose work is small next to a call.
-INLINE_KERNELS = ("s", "along", "lipschitz", "rise", "span", "combine", "rows", "bound", "map")
+INLINE_KERNELS = ("s", "along", "lipschitz", "rise", "span", "combine", "rows", "bound", "map",
+                  "frame", "apply")
 #: Dispatchers compiled into their one caller (``warp_map``'s, ``point.apply_warp``, is itself
 #: compiled into its callers).
 INLINE_DISPATCHERS = ("prim_s", "prim_along", "prim_lipschitz", "prim_rise", "prim_span",
@@ -155,6 +156,13 @@ _WARP_ROWS = """for m in range(nb):
     q = K.map(p, o, X, Y, Z)
     pts[pp, 0, m], pts[pp, 1, m], pts[pp, 2, m] = from_canonical(p, o, q[0], q[1], q[2])
 return"""
+_WARP_ROWS_FRAMED = """w = K.frame(p, o)
+pm = permutation(p, o)
+for m in range(nb):
+    X, Y, Z = to_canonical_with(pm, pts[pp, 0, m], pts[pp, 1, m], pts[pp, 2, m])
+    q = K.apply(w, X, Y, Z)
+    pts[pp, 0, m], pts[pp, 1, m], pts[pp, 2, m] = from_canonical_with(pm, q[0], q[1], q[2])
+return"""
 _ROWS_FROM_COMBINE = """for m in range(nb):
     for j in range(k):
         tmp[j, 0] = vs[b + j, m]
@@ -191,7 +199,8 @@ SOURCE = "".join([
                            else _ROWS_FROM_COMBINE), "return"),
     _dispatcher("warp_map", "p, o, X, Y, Z", "warp", "return K.map(p, o, X, Y, Z)",
                 "return NAN, NAN, NAN, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0"),
-    _dispatcher("warp_rows", "p, o, pts, pp, nb", "warp", _WARP_ROWS, "return"),
+    _dispatcher("warp_rows", "p, o, pts, pp, nb", "warp",
+                lambda c: _WARP_ROWS_FRAMED if c.KERNELS.apply else _WARP_ROWS, "return"),
     _dispatcher("paint", "p, o, px, py, pz, gx, gy, gz", "paint",
                 "return K.paint(p, o, px, py, pz, gx, gy, gz)", "return NAN, NAN, NAN"),
 ])
@@ -225,6 +234,9 @@ def _build() -> dict[str, object]:
                  "fo": kernel_math.fo, "affine": kernel_math.affine,
                  "map_with": kernel_math.map_with, "to_canonical": kernel_math.to_canonical,
                  "from_canonical": kernel_math.from_canonical,
+                 "permutation": kernel_math.permutation,
+                 "to_canonical_with": kernel_math.to_canonical_with,
+                 "from_canonical_with": kernel_math.from_canonical_with,
                  **_kernels()}
     exec(compile(SOURCE, __file__, "exec"), namespace)  # noqa: S102 (our own generated code)
     names = ("prim_s", "prim_uv", "prim_lipschitz", "prim_along", "prim_rise", "prim_span",

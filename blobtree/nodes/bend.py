@@ -24,17 +24,24 @@ MIN_DEGREES = 1e-3
 K, LENGTH, END_SIN, END_COS = LAYOUT.offsets
 
 
-@kernel
-def bend_map(p, o, X, Y, Z):
-    """Canonical bend along x toward +y with curvature k over [0, length].  On the arc a point at
-    angle phi and distance rho from the centre of curvature (0, 1/k) maps to (phi / k, 1/k - rho)
-    (no sine or cosine: sin phi = u / rho, cos phi = v / rho); before it (phi <= 0) it stays;
-    past its end angle theta = k length it continues straight along the end tangent (sin theta,
-    cos theta are parameters).  All three are computed and one is selected, without branches,
-    so that a loop over many points vectorises (``kernel_math.atan2`` likewise)."""
-    k, length, sn, cs = p[o + K], p[o + LENGTH], p[o + END_SIN], p[o + END_COS]
-    ik = 1.0 / k
-    end = k * length
+@kernel(inline="always")
+def bend_frame(p, o):
+    """The bend's numbers for many points: curvature k, 1 / k, the end angle theta = k length
+    and its sine and cosine (parameters)."""
+    k = p[o + K]
+    return k, 1.0 / k, k * p[o + LENGTH], p[o + END_SIN], p[o + END_COS]
+
+
+@kernel(inline="always")
+def _bent(w, X, Y):
+    """Canonical bend along x toward +y with curvature k over [0, length] (w: :func:`bend_frame`).
+    On the arc a point at angle phi and distance rho from the centre of curvature (0, 1/k) maps
+    to (phi / k, 1/k - rho) (no sine or cosine: sin phi = u / rho, cos phi = v / rho); before it
+    (phi <= 0) it stays; past its end angle theta it continues straight along the end tangent.
+    All three are computed and one is selected, without branches, so that a loop over many
+    points vectorises (``kernel_math.atan2`` likewise).  Returns (qx, qy, on the arc, past it,
+    u, v, rho^2, rho)."""
+    _, ik, end, sn, cs = w
     u, v = X, ik - Y
     phi = kernel_math.atan2(u, v)
     rho2 = u * u + v * v
@@ -44,6 +51,22 @@ def bend_map(p, o, X, Y, Z):
     dx, dy = X - sn * ik, Y - (1.0 - cs) * ik
     qx = phi * ik if arc else (end * ik + dx * cs + dy * sn if past else X)
     qy = ik - rho if arc else (-dx * sn + dy * cs if past else Y)
+    return qx, qy, arc, past, u, v, rho2, rho
+
+
+@kernel(inline="always")
+def bend_apply(w, X, Y, Z):
+    """The bend's query map (:func:`_bent`) without its Jacobian."""
+    qx, qy, _, _, _, _, _, _ = _bent(w, X, Y)
+    return qx, qy, Z
+
+
+@kernel
+def bend_map(p, o, X, Y, Z):
+    """The bend's query map (:func:`_bent`) and its Jacobian."""
+    w = bend_frame(p, o)
+    k, _, _, sn, cs = w
+    qx, qy, arc, past, u, v, rho2, rho = _bent(w, X, Y)
     j00 = v / (k * rho2) if arc else (cs if past else 1.0)
     j01 = u / (k * rho2) if arc else (sn if past else 0.0)
     j10 = -u / rho if arc else (-sn if past else 0.0)
@@ -67,7 +90,7 @@ class Bend(Warp):
         Param("toward", AXES, "y"),
     )
     LAYOUT = LAYOUT
-    KERNELS = WarpKernels(map=bend_map)
+    KERNELS = WarpKernels(map=bend_map, frame=bend_frame, apply=bend_apply)
 
     def _check(self):
         if abs(self.degrees) < MIN_DEGREES:

@@ -44,20 +44,36 @@ def map_point(p, o, x, y, z):
 
 
 @kernel(inline="always")
+def permutation(p, o):
+    """A warp's signed permutation Pm (frame axes to its canonical axes) at params[o:o + 9], row
+    by row, read once for many points."""
+    return (p[o], p[o + 1], p[o + 2], p[o + 3], p[o + 4], p[o + 5], p[o + 6], p[o + 7], p[o + 8])
+
+
+@kernel(inline="always")
+def to_canonical_with(m, x, y, z):
+    """A warp's frame point in its canonical axes: X = Pm x (m: :func:`permutation`)."""
+    return (m[0] * x + m[1] * y + m[2] * z, m[3] * x + m[4] * y + m[5] * z,
+            m[6] * x + m[7] * y + m[8] * z)
+
+
+@kernel(inline="always")
+def from_canonical_with(m, qx, qy, qz):
+    """A canonical point back in the warp's frame: Pm^T q."""
+    return (m[0] * qx + m[3] * qy + m[6] * qz, m[1] * qx + m[4] * qy + m[7] * qz,
+            m[2] * qx + m[5] * qy + m[8] * qz)
+
+
+@kernel(inline="always")
 def to_canonical(p, o, x, y, z):
-    """A warp's frame point in its canonical axes: X = Pm x, for the signed permutation Pm at
-    params[o:o + 9]."""
-    return (p[o] * x + p[o + 1] * y + p[o + 2] * z,
-            p[o + 3] * x + p[o + 4] * y + p[o + 5] * z,
-            p[o + 6] * x + p[o + 7] * y + p[o + 8] * z)
+    """:func:`to_canonical_with` the permutation at params[o:o + 9]."""
+    return to_canonical_with(permutation(p, o), x, y, z)
 
 
 @kernel(inline="always")
 def from_canonical(p, o, qx, qy, qz):
-    """A canonical point back in the warp's frame: Pm^T q."""
-    return (p[o] * qx + p[o + 3] * qy + p[o + 6] * qz,
-            p[o + 1] * qx + p[o + 4] * qy + p[o + 7] * qz,
-            p[o + 2] * qx + p[o + 5] * qy + p[o + 8] * qz)
+    """:func:`from_canonical_with` the permutation at params[o:o + 9]."""
+    return from_canonical_with(permutation(p, o), qx, qy, qz)
 
 
 @kernel

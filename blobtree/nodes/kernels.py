@@ -55,9 +55,15 @@ class OperatorKernels:
 @dataclass(frozen=True)
 class WarpKernels:
     """``map(p, o, X, Y, Z) -> (qx, qy, qz, J00, J01, J02, J10, ..., J22)``: the query map of the
-    warp in its canonical axes and its Jacobian, row by row."""
+    warp in its canonical axes and its Jacobian, row by row; optional ``frame(p, o) -> w`` and
+    ``apply(w, X, Y, Z) -> (qx, qy, qz)``: the same map without its Jacobian, its numbers read
+    (and what they derive computed) once by ``frame`` for a whole batch of points, which
+    ``apply`` then maps one by one (the batch walk's loop: the compiler cannot keep numbers
+    read from the params array out of a loop that writes the points' array)."""
 
     map: Callable
+    frame: Callable | None = None
+    apply: Callable | None = None
 
 
 @dataclass(frozen=True)
