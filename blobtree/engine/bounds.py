@@ -346,7 +346,9 @@ def _b_operator(prog, at, i, cur, st, b, k):
     f = vs[b, FIELD]
     least, most = _op_range(op, p, o, vs, b, k)
     vs[b, FIELD] = f
-    least, most = max(least, f - bound * reach), min(most, f + bound * reach)
+    # (no field is below 0: a range from a non-monotone operator's value less its bound times
+    # the region's size must not reach its parent's combine, an n-norm, below 0)
+    least, most = max(least, f - bound * reach, 0.0), min(most, f + bound * reach)
     if most < ISO:  # below ISO all over the region
         below = math.inf
     if least > ISO:
