@@ -147,18 +147,32 @@ def _rule(op, p, o, vs, col, b, e):
 
 
 @kernel(inline="always")
-def _prim_bound(prog, i, at, cur, pp):
-    """Primitive i's bound over the region ``cur``, or along the segment where it has a
-    directional one (outside warps, ``at[RAY]``)."""
-    code, p = prog[0], prog[1]
-    op, o = code[i, OP], code[i, OFFSET]
-    if at[RAY] > 0.0 and pp == 0:
-        along = prim_along(op, p, o, at[ORIGIN], at[ORIGIN + 1], at[ORIGIN + 2], at[DIRECTION],
-                           at[DIRECTION + 1], at[DIRECTION + 2], at[LENGTH])
-        if along >= 0.0:
-            return along
+def _prim_along(prog, i, at, pp):
+    """Primitive i's directional bound along the segment (outside warps, ``at[RAY]``), or -1
+    where it has none (then its bound over the region: :func:`_prim_bound`)."""
+    if not (at[RAY] > 0.0 and pp == 0):
+        return -1.0
+    code = prog[0]
+    return prim_along(code[i, OP], prog[1], code[i, OFFSET], at[ORIGIN], at[ORIGIN + 1],
+                      at[ORIGIN + 2], at[DIRECTION], at[DIRECTION + 1], at[DIRECTION + 2],
+                      at[LENGTH])
+
+
+@kernel(inline="always")
+def _local(prog, i, cur):
+    """The region ``cur`` in primitive i's own coordinates: the centre and half extents of its
+    box, and the radius of its ball."""
+    p, o = prog[1], prog[0][i, OFFSET]
     cx, cy, cz, hx, hy, hz = map_box(p, o, cur[0], cur[1], cur[2], cur[3], cur[4], cur[5])
-    return prim_lipschitz(op, p, o, prog[3][i], cx, cy, cz, hx, hy, hz, cur[6] * p[o + MAP_NORM])
+    return cx, cy, cz, hx, hy, hz, cur[6] * p[o + MAP_NORM]
+
+
+@kernel(inline="always")
+def _prim_bound(prog, i, local):
+    """Primitive i's bound on ``|grad f|`` over the region (:func:`_local`)."""
+    code, p = prog[0], prog[1]
+    cx, cy, cz, hx, hy, hz, r = local
+    return prim_lipschitz(code[i, OP], p, code[i, OFFSET], prog[3][i], cx, cy, cz, hx, hy, hz, r)
 
 
 @kernel(inline="always")
@@ -178,13 +192,20 @@ def _prim_moves(prog, i, at, cur, pp, bound, vs, sp):
 
 
 @kernel(inline="always")
+def _moves(op, j, b):
+    """How operator op's field moves with its child in row j, its first in row b: +1 with it,
+    -1 against it, 0 either way (``Operator.MONOTONE``)."""
+    return MONOTONE_FIRST[op] if j == b else MONOTONE_REST[op]
+
+
+@kernel(inline="always")
 def _op_moves(op, p, o, vs, b, e, bound):
     """An operator's rise and fall along the cone, into vs[b, RISES] and vs[b, FALLS]: its rule
     over what each child's moves do to it (``MONOTONE``: a child it grows with gives its rise
     to the rise and its fall to the fall, one it shrinks with the other way round, one it moves
     either way with its plain bound vs[j, FIELD] to both), at most its own ``bound``."""
     for j in range(b, e):
-        sign = MONOTONE_FIRST[op] if j == b else MONOTONE_REST[op]
+        sign = _moves(op, j, b)
         if sign == 0:
             vs[j, RISES] = vs[j, FALLS] = vs[j, FIELD]
         elif sign < 0:
@@ -195,13 +216,13 @@ def _op_moves(op, p, o, vs, b, e, bound):
 
 
 @kernel(inline="always")
-def _prim_range(prog, i, cur):
-    """The least and the most primitive i's field can be over the region ``cur`` (its frame's
-    coordinates): the falloff at the most and the least r / R there (its ``span``)."""
+def _prim_range(prog, i, local):
+    """The least and the most primitive i's field can be over the region (:func:`_local`): the
+    falloff at the most and the least r / R there (its ``span``)."""
     code, p = prog[0], prog[1]
-    op, o = code[i, OP], code[i, OFFSET]
-    cx, cy, cz, hx, hy, hz = map_box(p, o, cur[0], cur[1], cur[2], cur[3], cur[4], cur[5])
-    rmin, rmax = prim_span(op, p, o, cx, cy, cz, hx, hy, hz, cur[6] * p[o + MAP_NORM])
+    o = code[i, OFFSET]
+    cx, cy, cz, hx, hy, hz, r = local
+    rmin, rmax = prim_span(code[i, OP], p, o, cx, cy, cz, hx, hy, hz, r)
     fid = int(p[o + FALLOFF])
     return (fo(fid, rmax * rmax) if rmax < 1.0 else 0.0,
             fo(fid, rmin * rmin) if rmin < 1.0 else 0.0)
@@ -213,7 +234,7 @@ def _combine_ends(op, p, o, vs, b, k, least):
     makes it least (``least``) or most: the end it rises toward, or away from where it falls
     with that child (``MONOTONE``)."""
     for j in range(b, b + k):
-        rises = (MONOTONE_FIRST[op] if j == b else MONOTONE_REST[op]) > 0
+        rises = _moves(op, j, b) > 0
         vs[j, FIELD] = vs[j, LEAST] if rises == least else vs[j, MOST]
     combine(op, vs, b, k, p, o, VALUE)
     return vs[b, FIELD]
@@ -226,7 +247,7 @@ def _op_range(op, p, o, vs, b, k):
     their ends (:func:`_combine_ends`, which leaves the children's values, and the result's,
     overwritten); (-inf, inf) for one that does not."""
     for j in range(b, b + k):
-        if (MONOTONE_FIRST[op] if j == b else MONOTONE_REST[op]) == 0:
+        if _moves(op, j, b) == 0:
             return -math.inf, math.inf
     return (_combine_ends(op, p, o, vs, b, k, True), _combine_ends(op, p, o, vs, b, k, False))
 
@@ -251,7 +272,8 @@ def _l_primitive(prog, at, i, cur, pp, st, sp):
     vs = st[0]
     vs[sp, FIELD] = vs[sp, RISES] = vs[sp, FALLS] = 0.0
     if not misses(prog[2], i, cur[:6]):
-        vs[sp, FIELD] = _prim_bound(prog, i, at, cur, pp)
+        bound = _prim_along(prog, i, at, pp)
+        vs[sp, FIELD] = bound if bound >= 0.0 else _prim_bound(prog, i, _local(prog, i, cur))
         if at[SPREAD] >= 0.0:
             _prim_moves(prog, i, at, cur, pp, vs[sp, FIELD], vs, sp)
 
@@ -328,8 +350,10 @@ def _b_primitive(prog, at, i, cur, pp, st, sp):
     vs[sp, FIELD] = vs[sp, BOUND] = vs[sp, BELOW] = vs[sp, ABOVE] = 0.0
     vs[sp, LEAST] = vs[sp, MOST] = 0.0
     if not misses(prog[2], i, cur[:6]):
-        vs[sp, BOUND] = _prim_bound(prog, i, at, cur, pp)
-        vs[sp, LEAST], vs[sp, MOST] = _prim_range(prog, i, cur)
+        local = _local(prog, i, cur)
+        bound = _prim_along(prog, i, at, pp)
+        vs[sp, BOUND] = bound if bound >= 0.0 else _prim_bound(prog, i, local)
+        vs[sp, LEAST], vs[sp, MOST] = _prim_range(prog, i, local)
         if not outside(prog[2], i, cur[7], cur[8], cur[9]):
             push_primitive(prog, i, cur[7], cur[8], cur[9], VALUE, vs, sp)
 

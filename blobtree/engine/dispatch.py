@@ -119,8 +119,7 @@ INLINE_KERNELS = ("s", "along", "lipschitz", "rise", "span", "combine", "rows", 
 #: Dispatchers compiled into their one caller (``warp_map``'s, ``point.apply_warp``, is itself
 #: compiled into its callers).
 INLINE_DISPATCHERS = ("prim_s", "prim_along", "prim_lipschitz", "prim_rise", "prim_span",
-                      "combine",
-                      "combine_rows", "op_bound", "warp_map")
+                      "combine", "combine_rows", "op_bound", "warp_map")
 
 
 def _inlined(fn):
@@ -240,8 +239,7 @@ def _build() -> dict[str, object]:
                  **_kernels()}
     exec(compile(SOURCE, __file__, "exec"), namespace)  # noqa: S102 (our own generated code)
     names = ("prim_s", "prim_uv", "prim_lipschitz", "prim_along", "prim_rise", "prim_span",
-             "prim_rows",
-             "combine", "op_bound", "combine_rows", "warp_map", "warp_rows", "paint")
+             "prim_rows", "combine", "op_bound", "combine_rows", "warp_map", "warp_rows", "paint")
     return {name: (_inlined(namespace[name]) if name in INLINE_DISPATCHERS
                    else kernel(namespace[name]))
             for name in names}
