@@ -316,7 +316,7 @@ class _Emitter:
             lip: float = 0.0) -> int:
         i = len(self.code)
         self.code.append([op, self.base + len(self.params), i + 1, count])
-        self.params.extend(float(v) for v in params)
+        self.params.extend(map(float, params))
         self.boxes.append(_box6(box))
         self.lips.append(lip)
         return i

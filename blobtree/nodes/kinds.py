@@ -181,12 +181,15 @@ class Affine(Unary):
     def framed(self, L: np.ndarray) -> np.ndarray:
         """The child's frame seen through L (this node -> frame): ``compose(L, matrix)``, read-
         only, computed once per frame (boxes and the compiler both ask for it)."""
-        def make() -> np.ndarray:
-            M = geo.compose(L, self.matrix)
-            M.setflags(write=False)
-            return M
+        memo = self.__dict__.get("_framed")
+        if memo is None:
+            memo = self.__dict__["_framed"] = {}
+        return by_frame(memo, L, self._composed)
 
-        return by_frame(self.memo("_framed", dict), L, make)
+    def _composed(self, L: np.ndarray) -> np.ndarray:
+        M = geo.compose(L, self.matrix)
+        M.setflags(write=False)
+        return M
 
     def below(self, L: np.ndarray) -> tuple[Node, np.ndarray]:
         """The first node below this chain of affine nodes that is not one, and its frame seen

@@ -144,13 +144,15 @@ def mark_frames(nodes: Iterable[Node]) -> list[dict]:
     return list(memos.values())
 
 
-def by_frame(memo: dict, L: np.ndarray, make: Callable[[], Any]) -> Any:
-    """The value a memo by frame holds for frame L, made by ``make`` the first time; either
-    way put back last (the frames last asked for come last, for :func:`drop_older_frames`)."""
+def by_frame(memo: dict, L: np.ndarray, make: Callable[[np.ndarray], Any]) -> Any:
+    """The value a memo by frame holds for frame L, ``make(L)`` the first time; either way put
+    back last (the frames last asked for come last, for :func:`drop_older_frames`).  (``make``
+    a bound method, not a closure made at each call: a change of the Murex's spiral asks some
+    14,000 times.)"""
     key = L.tobytes()
     value = memo.pop(key, None)
     if value is None:
-        value = make()
+        value = make(L)
     memo[key] = value
     return value
 
@@ -410,18 +412,21 @@ class Node:
     def box_memo(self, known: dict[bytes, geo.Box] | None = None) -> dict[bytes, geo.Box]:
         """The boxes :meth:`box` computed, by frame; ``known``: a structurally equal node's
         (the same boxes), to start from if this node has none yet."""
-        return self.memo("_box_memo", lambda: {} if known is None else known)
+        memo = self.__dict__.get("_box_memo")
+        if memo is None:
+            memo = self.__dict__["_box_memo"] = {} if known is None else known
+        return memo
 
     def box(self, L: np.ndarray) -> geo.Box:
         """``_box``, computed once per frame (a shared subtree is not walked again)."""
-        def make() -> geo.Box:
-            lo, hi = self._box(L)
-            box = (np.array(lo, dtype=float), np.array(hi, dtype=float))
-            for a in box:
-                a.setflags(write=False)
-            return box
+        return by_frame(self.box_memo(), L, self._read_only_box)
 
-        return by_frame(self.box_memo(), L, make)
+    def _read_only_box(self, L: np.ndarray) -> geo.Box:
+        lo, hi = self._box(L)
+        box = (np.array(lo, dtype=float), np.array(hi, dtype=float))
+        for a in box:
+            a.setflags(write=False)
+        return box
 
     def lipschitz(self) -> float:
         """A global bound on ``|grad f|`` (computed once)."""
