@@ -181,10 +181,7 @@ class Affine(Unary):
     def framed(self, L: np.ndarray) -> np.ndarray:
         """The child's frame seen through L (this node -> frame): ``compose(L, matrix)``, read-
         only, computed once per frame (boxes and the compiler both ask for it)."""
-        memo = self.__dict__.get("_framed")
-        if memo is None:
-            memo = self.__dict__["_framed"] = {}
-        return by_frame(memo, L, self._composed)
+        return by_frame(self._frame_memo("_framed"), L, self._composed)
 
     def _composed(self, L: np.ndarray) -> np.ndarray:
         M = geo.compose(L, self.matrix)

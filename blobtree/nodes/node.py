@@ -412,9 +412,15 @@ class Node:
     def box_memo(self, known: dict[bytes, geo.Box] | None = None) -> dict[bytes, geo.Box]:
         """The boxes :meth:`box` computed, by frame; ``known``: a structurally equal node's
         (the same boxes), to start from if this node has none yet."""
-        memo = self.__dict__.get("_box_memo")
+        return self._frame_memo("_box_memo", known)
+
+    def _frame_memo(self, name: str, known: dict | None = None) -> dict:
+        """The memo by frame kept on the node under ``name`` (one of ``FRAME_MEMOS``),
+        ``known`` (else empty) if it has none yet; read directly, as ``by_frame``'s callers
+        ask for it thousands of times a compile."""
+        memo = self.__dict__.get(name)
         if memo is None:
-            memo = self.__dict__["_box_memo"] = {} if known is None else known
+            memo = self.__dict__[name] = {} if known is None else known
         return memo
 
     def box(self, L: np.ndarray) -> geo.Box:
