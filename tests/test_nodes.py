@@ -272,3 +272,25 @@ def test_whole_number_powers_match_pow():
     for n in (0.0, 1.0, 2.0, 30.0, 40.0, 120.0, 400.0, 2.5, 40.25, 1e5):
         for x in (0.0, 0.3, 0.9, 0.999, 1.0):
             assert power(x, n) == pytest.approx(x ** n, rel=1e-13, abs=1e-300)
+
+
+def test_a_chain_of_affine_nodes_folds_into_one_map():
+    """``Affine.folded``: the first node below a chain of affine nodes and the chain's maps
+    composed, which frames the node below in one product (``framed``): the same map, within
+    rounding, as the nodes' own maps applied one after another, and the points it maps."""
+    from blobtree import geometry as geo
+
+    cone = bt.Cone((0.0, 0.0, 0.0), (1.0, 0.0, 0.0), radius_a=0.3, radius_b=0.1)
+    top = cone.rotate("z", 30.0).translate(1.0, 2.0, 3.0).scale(0.5, 2.0, 1.5).rotate("x", 70.0)
+    bottom, M = top.folded
+    assert bottom is cone
+    nodes, expected = top, geo.IDENTITY
+    while nodes.KIND == "affine":
+        expected, nodes = geo.compose(expected, nodes.matrix), nodes.child
+    np.testing.assert_allclose(M, expected, rtol=0, atol=1e-14)
+    L = geo.affine(np.diag([2.0, 1.0, 1.0]), np.array([0.0, 1.0, 0.0]))
+    node, framed = top.below(L)
+    assert node is cone
+    P = np.random.default_rng(1).normal(size=(5, 3))
+    np.testing.assert_allclose(geo.apply(framed, P), geo.apply(L, geo.apply(expected, P)),
+                               atol=1e-13)

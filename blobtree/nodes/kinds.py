@@ -178,23 +178,34 @@ class Affine(Unary):
         f, g, c = self.child._ref(geo.apply(inv, P), look)
         return f, g @ inv[:, :3], c
 
+    @cached_property
+    def folded(self) -> tuple[Node, np.ndarray]:
+        """The first node below this chain of affine nodes that is not one, and the chain's
+        maps composed (that node's coordinates -> this node's), read-only: a value of the
+        subtree, so a chain placed in a new frame (a spiral changed) is composed with it
+        once, not node by node."""
+        node, M = self.child, self.matrix
+        if node.KIND == "affine":
+            node, inner = node.folded
+            M = geo.compose(M, inner)
+        M.setflags(write=False)
+        return node, M
+
     def framed(self, L: np.ndarray) -> np.ndarray:
-        """The child's frame seen through L (this node -> frame): ``compose(L, matrix)``, read-
-        only, computed once per frame (boxes and the compiler both ask for it)."""
+        """The frame of the node below the chain (:attr:`folded`) seen through L (this node ->
+        frame): ``compose(L, chain matrix)``, read-only, computed once per frame (boxes and
+        the compiler both ask for it)."""
         return by_frame(self._frame_memo("_framed"), L, self._composed)
 
     def _composed(self, L: np.ndarray) -> np.ndarray:
-        M = geo.compose(L, self.matrix)
+        M = geo.compose(L, self.folded[1])
         M.setflags(write=False)
         return M
 
     def below(self, L: np.ndarray) -> tuple[Node, np.ndarray]:
         """The first node below this chain of affine nodes that is not one, and its frame seen
-        through L (the chain's maps composed from the top, as :meth:`framed` composes them)."""
-        node, M = self.child, self.framed(L)
-        while node.KIND == "affine":
-            node, M = node.child, node.framed(M)
-        return node, M
+        through L (:meth:`framed`)."""
+        return self.folded[0], self.framed(L)
 
     def _box(self, L):
         node, M = self.below(L)

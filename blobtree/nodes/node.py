@@ -127,7 +127,7 @@ def arity_words(lo: int, hi: int | None) -> str:
 
 
 #: The memos a node keeps by frame (a frame's bytes -> its value): its boxes, and an affine
-#: node's child frame (``Affine.framed``).
+#: node's frame below its chain (``Affine.framed``).
 FRAME_MEMOS = ("_box_memo", "_framed")
 #: The mark :func:`mark_frames` puts in them.
 _SINCE = object()
