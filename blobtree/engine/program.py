@@ -298,7 +298,9 @@ class _Emitter:
         self.code: list[list[int]] = []
         #: the instructions' parameters; the images come before them in ``params``
         self.params: list[float] = []
-        self.boxes: list[np.ndarray] = []
+        #: the instructions' boxes, their low and high corners
+        self.lo: list[np.ndarray] = []
+        self.hi: list[np.ndarray] = []
         self.lips: list[float] = []
         #: image key -> params offset, the image blocks, and how many parameters they take
         self.images: dict[str, int] = {}
@@ -317,14 +319,16 @@ class _Emitter:
         i = len(self.code)
         self.code.append([op, self.base + len(self.params), i + 1, count])
         self.params.extend(map(float, params))
-        self.boxes.append(_box6(box))
+        lo, hi = _NO_BOX if box is None else box
+        self.lo.append(lo)
+        self.hi.append(hi)
         self.lips.append(lip)
         return i
 
     def close(self, i: int, box: geo.Box) -> None:
         """Set instruction i's skip target to the next instruction, and its box."""
         self.code[i][SKIP] = len(self.code)
-        self.boxes[i] = _box6(box)
+        self.lo[i], self.hi[i] = box
 
     def image_offset(self, node: Node) -> int:
         """Where a texture's image block lies in params (each distinct image once, all before
@@ -373,7 +377,8 @@ class _Emitter:
         rows[:, SKIP] += dc
         self.code.extend(rows.tolist())
         self.params.extend(prog.params[p0:p1].tolist())
-        self.boxes.extend(prog.boxes[c0:c1])
+        self.lo.extend(prog.boxes[c0:c1, :3])
+        self.hi.extend(prog.boxes[c0:c1, 3:])
         self.lips.extend(prog.lips[c0:c1].tolist())
         return box
 
@@ -385,7 +390,8 @@ class _Emitter:
         self.framed.update({i + dc: self.framed[i] for i in range(c0, c1) if i in self.framed})
         self.code.extend([op, at + dp, to + dc, n] for op, at, to, n in self.code[c0:c1])
         self.params.extend(self.params[p0:p1])
-        self.boxes.extend(self.boxes[c0:c1])
+        self.lo.extend(self.lo[c0:c1])
+        self.hi.extend(self.hi[c0:c1])
         self.lips.extend(self.lips[c0:c1])
         return box
 
@@ -464,8 +470,7 @@ class _Emitter:
         box = node.box(M)
         push = self.add(OP_PUSHPT, [0.0] * (FRAME_NORM + 1), box)  # (map, norm: frame_maps)
         self.framed[push] = (M, node.lipschitz(), FRAME_NORM)
-        w = self.add(opcode(node), [*node.canonical.reshape(-1), *node.pack()], node.own_box,
-                     lip=node.stretch)
+        w = self.add(opcode(node), _warp_params(node), node.own_box, lip=node.stretch)
         self.emit(node.child, geo.IDENTITY, look)
         self.code[w][SKIP] = len(self.code)  # a miss jumps to POPPT
         # POPPT's lip: the factor from the warp's child frame to the outer frame
@@ -500,7 +505,8 @@ class _Emitter:
         return Program(
             code=code,
             params=params,
-            boxes=np.array(self.boxes, dtype=np.float64).reshape(-1, 6),
+            boxes=np.concatenate([np.array(self.lo, dtype=np.float64).reshape(-1, 3),
+                                  np.array(self.hi, dtype=np.float64).reshape(-1, 3)], axis=1),
             lips=lips,
             depth=_stack_depth(code),
             bounds=root.bounds(),
@@ -519,10 +525,15 @@ def _own_params(node: Primitive) -> list[float]:
     return node.memo("_own_params", make)
 
 
-def _box6(box: geo.Box | None) -> np.ndarray:
-    if box is None:
-        return np.array([-np.inf] * 3 + [np.inf] * 3)
-    return np.concatenate(box)
+def _warp_params(node: Warp) -> list[float]:
+    """A warp's parameters in the program: its signed permutation, then its own ``LAYOUT``;
+    kept on the node, as :func:`_own_params`."""
+    return node.memo("_warp_params",
+                     lambda: [float(v) for v in (*node.canonical.reshape(-1), *node.pack())])
+
+
+#: The box of an instruction that has none: everything.
+_NO_BOX = (np.full(3, -np.inf), np.full(3, np.inf))
 
 
 def _stack_depth(code: np.ndarray) -> int:
@@ -570,21 +581,22 @@ def _split(boxes: list[geo.Box]) -> tuple[np.ndarray, np.ndarray]:
     group's box holds a point in proportion to its volume, and then all its boxes are tested),
     the boxes grown by a little so that flat ones still count; of equally good cuts, the most
     even (boxes all alike give a balanced tree).  Empty boxes count as points at the origin."""
-    lo, hi = np.array(boxes, dtype=np.float64).transpose(1, 0, 2)
-    if not (np.isfinite(lo).all() and np.isfinite(hi).all()):
-        lo, hi = (np.nan_to_num(a, nan=0.0, posinf=0.0, neginf=0.0) for a in (lo, hi))
-    hi = np.maximum(hi, lo)
-    n = len(boxes)
+    b = np.array(boxes, dtype=np.float64)
+    if not np.isfinite(b).all():
+        b = np.nan_to_num(b, nan=0.0, posinf=0.0, neginf=0.0)
+    lo = b[:, 0]
+    hi = np.maximum(b[:, 1], lo)
+    n = len(b)
     grow = 0.01 * float((hi.max(axis=0) - lo.min(axis=0)).max())
     # the three axes at once: [axis, place in that axis' order, coordinate]
     order = np.argsort(lo + hi, axis=0, kind="stable").T
-    a, b = lo[order], hi[order]
-    head = np.prod(np.maximum.accumulate(b, axis=1)[:, :-1]
-                   - np.minimum.accumulate(a, axis=1)[:, :-1] + grow, 2)
-    tail = np.prod(np.maximum.accumulate(b[:, ::-1], axis=1)[:, :-1]
-                   - np.minimum.accumulate(a[:, ::-1], axis=1)[:, :-1] + grow, 2)[:, ::-1]
+    # each cut's two groups' boxes: the running greatest of hi and of -lo, from the front and
+    # from the back, in one pass ([side, axis, place, coordinate])
+    ends = np.concatenate([hi, -lo], axis=1)[order]
+    run = np.maximum.accumulate(np.stack([ends, ends[:, ::-1]]), axis=2)[:, :, :-1]
+    volume = np.prod(run[..., :3] + run[..., 3:] + grow, axis=3)
     k = np.arange(1, n)
-    cost = head * k + tail * (n - k)
+    cost = volume[0] * k + volume[1, :, ::-1] * (n - k)
     # on each axis, of the cuts within a hair of its cheapest, the most even (the first such);
     # then the cheapest axis (the first of equals)
     near = cost <= cost.min(axis=1, keepdims=True) * (1.0 + 1e-9)
