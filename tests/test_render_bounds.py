@@ -4,9 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import blobtree as bt
 from blobtree.fields import falloff_ds
+from blobtree.nodes.bend import bend_stretch
+from blobtree.nodes.warp import PERM_END
 
 
 @pytest.mark.parametrize(
@@ -65,6 +69,45 @@ def test_a_warps_region_is_a_ball_not_the_cube_around_it():
         bound = prog.lipschitz((c - e)[None], (c + e)[None])[0]
         P = c + rng.uniform(-1.0, 1.0, (1500, 3)) * e
         assert np.linalg.norm(prog.gradient(P), axis=1).max() <= bound * (1 + 1e-9) + 1e-12
+
+
+def test_a_bend_stretches_a_region_as_much_as_it_does_there():
+    """A bend's query map stretches by 1 / (k rho) at distance rho from the centre of curvature
+    (its stretch, lips, is that at the child's nearest reach); a region on its outer side is
+    stretched by at most 1, so its ball through the warp is lips times smaller.  This box is
+    clear of the thick bent cone's support (its field is 0 all over it), which its ball
+    grown by lips would reach: its bound is 0."""
+    cone = bt.Cone((0, 0, 0), (2, 0, 0), radius_a=1.0, radius_b=1.0).bend(90.0, 2.0)
+    prog = cone.program()
+    lo, hi = np.array([-0.95, -0.95, -0.1]), np.array([-0.75, -0.75, 0.1])
+    rng = np.random.default_rng(0)
+    assert np.all(cone.field(rng.uniform(lo, hi, (20000, 3))) == 0.0)
+    # (before the bend, the warp moves nothing; the cone's end is at the origin, R = 1)
+    centre, half = np.linalg.norm((lo + hi) / 2.0), np.linalg.norm(hi - lo) / 2.0
+    assert centre - cone.stretch * half < 1.0 <= centre - half
+    assert prog.lipschitz(lo[None], hi[None])[0] == 0.0
+    for _ in range(100):  # and the bound holds over boxes all around it
+        c = rng.uniform(*prog.bounds)
+        e = rng.uniform(0.0, 0.3, 3)
+        bound = prog.lipschitz((c - e)[None], (c + e)[None])[0]
+        P = c + rng.uniform(-1.0, 1.0, (1500, 3)) * e
+        assert np.linalg.norm(prog.gradient(P), axis=1).max() <= bound * (1 + 1e-9) + 1e-12
+
+
+@given(st.floats(5.0, 175.0), st.floats(0.7, 3.0), st.tuples(*[st.floats(-3.0, 3.0)] * 3),
+       st.tuples(*[st.floats(0.001, 1.0)] * 3))
+@settings(max_examples=60, deadline=None)
+def test_bend_stretch_bounds_the_jacobian_over_a_box(degrees, length, centre, half):
+    """``bend_stretch`` over a box (canonical axes) is at least the norm of the query map's
+    Jacobian at every point of it (or inf: the box reaches the centre of curvature's side)."""
+    node = bt.Cone((0, 0, 0), (length, 0, 0), 0.2, 0.1).bend(degrees, length)
+    params = np.concatenate([np.zeros(PERM_END), node.pack()])
+    lo, hi = np.array(centre) - half, np.array(centre) + half
+    bound = bend_stretch(params, 0, *lo, *hi)
+    P = np.vstack([np.random.default_rng(1).uniform(lo, hi, (2000, 3)),
+                   np.array(np.meshgrid(*zip(lo, hi, strict=True))).reshape(3, -1).T])
+    _, J = node.warp_points(P)  # (axis x toward +y: the canonical axes are the frame's)
+    assert np.linalg.norm(J, ord=2, axis=(1, 2)).max() <= bound * (1 + 1e-12)
 
 
 _A = bt.Point(radius=1.0)

@@ -25,6 +25,7 @@ from ..nodes.kernel_math import (
     map_point,
     norm_of,
     safe_distances,
+    to_canonical,
 )
 from ..nodes.kernels import LIPSCHITZ_RULES
 from ..nodes.layout import (
@@ -64,6 +65,7 @@ from .dispatch import (
     prim_rise,
     prim_s,
     prim_span,
+    warp_stretch,
 )
 from .point import (
     PROGRAM,
@@ -95,22 +97,37 @@ def half_diagonal(lox, loy, loz, hix, hiy, hiz):
     return 0.5 * math.sqrt((hix - lox) ** 2 + (hiy - loy) ** 2 + (hiz - loz) ** 2)
 
 
+@kernel(inline="always")
+def region_stretch(prog, i, region):
+    """A bound on the norm of warp i's Jacobian over ``region`` (its frame's coordinates): its
+    ``stretch`` kernel's over the region's box in canonical axes, at most lips[i] (its stretch
+    over its whole box)."""
+    code, p = prog[0], prog[1]
+    o = code[i, OFFSET]
+    c0, c1, c2 = to_canonical(p, o, region[0], region[1], region[2])
+    d0, d1, d2 = to_canonical(p, o, region[3], region[4], region[5])
+    return min(prog[3][i], warp_stretch(code[i, OP], p, o, min(c0, d0), min(c1, d1), min(c2, d2),
+                                        max(c0, d0), max(c1, d1), max(c2, d2)))
+
+
 @kernel
 def carry(entering, prog, i, region, scratch):
     """``region`` (lox, loy, loz, hix, hiy, hiz, rad: the box and the ball of radius rad about
     its centre) carried into the frame of PUSHPT i (``entering``: the box around its affine
     image, the ball grown by the map's norm) or through warp i (a ball, and the cube around
-    it, about the warped centre: the query map moves points by at most its stretch lips[i]
-    times the distance): the new region.  A warp's region is a ball: the cube around it
-    reaches sqrt(3) times further.  ``scratch``: a point stack the warp may not use."""
-    code, p, lips = prog[0], prog[1], prog[3]
+    it, about the warped centre: the query map moves points by at most its stretch over the
+    region, :func:`region_stretch`, times the distance): the new region.  A warp's region is a
+    ball: the cube around it reaches sqrt(3) times further.  ``scratch``: a point stack the warp
+    may not use."""
+    code, p = prog[0], prog[1]
     o = code[i, OFFSET]
     lox, loy, loz, hix, hiy, hiz, rad = region
     if entering:
         cx, cy, cz, ex, ey, ez = map_box(p, o, lox, loy, loz, hix, hiy, hiz)
         return cx - ex, cy - ey, cz - ez, cx + ex, cy + ey, cz + ez, rad * p[o + FRAME_NORM]
     cx, cy, cz = 0.5 * (lox + hix), 0.5 * (loy + hiy), 0.5 * (loz + hiz)
-    reach = lips[i] * min(rad, half_diagonal(lox, loy, loz, hix, hiy, hiz))
+    reach = region_stretch(prog, i, region) * min(rad, half_diagonal(lox, loy, loz, hix, hiy,
+                                                                     hiz))
     wx, wy, wz = apply_warp(code[i, OP], p, o, cx, cy, cz, scratch, 0, VALUE)
     return wx - reach, wy - reach, wz - reach, wx + reach, wy + reach, wz + reach, reach
 

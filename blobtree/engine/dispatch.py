@@ -115,7 +115,7 @@ def _dispatcher(name: str, args: str, kind: str, case: str, miss: str) -> str:
 #: loops drop the gradient they do not use; one copy serves them and the point walk), the bounds
 #: the ray tracer asks for at every step, and the operators, whose work is small next to a call.
 INLINE_KERNELS = ("s", "along", "lipschitz", "rise", "span", "combine", "rows", "bound", "map",
-                  "frame", "apply")
+                  "frame", "apply", "stretch")
 #: Dispatchers compiled into their one caller (``warp_map``'s, ``point.apply_warp``, is itself
 #: compiled into its callers).
 INLINE_DISPATCHERS = ("prim_s", "prim_along", "prim_lipschitz", "prim_rise", "prim_span",
@@ -198,6 +198,9 @@ SOURCE = "".join([
                            else _ROWS_FROM_COMBINE), "return"),
     _dispatcher("warp_map", "p, o, X, Y, Z", "warp", "return K.map(p, o, X, Y, Z)",
                 "return NAN, NAN, NAN, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0"),
+    _dispatcher("warp_stretch", "p, o, lox, loy, loz, hix, hiy, hiz", "warp",
+                lambda c: ("return K.stretch(p, o, lox, loy, loz, hix, hiy, hiz)"
+                           if c.KERNELS.stretch else "return INF"), "return INF"),
     _dispatcher("warp_rows", "p, o, pts, pp, nb", "warp",
                 lambda c: _WARP_ROWS_FRAMED if c.KERNELS.apply else _WARP_ROWS, "return"),
     _dispatcher("paint", "p, o, px, py, pz, gx, gy, gz", "paint",
@@ -239,7 +242,8 @@ def _build() -> dict[str, object]:
                  **_kernels()}
     exec(compile(SOURCE, __file__, "exec"), namespace)  # noqa: S102 (our own generated code)
     names = ("prim_s", "prim_uv", "prim_lipschitz", "prim_along", "prim_rise", "prim_span",
-             "prim_rows", "combine", "op_bound", "combine_rows", "warp_map", "warp_rows", "paint")
+             "prim_rows", "combine", "op_bound", "combine_rows", "warp_map", "warp_stretch",
+             "warp_rows", "paint")
     return {name: (_inlined(namespace[name]) if name in INLINE_DISPATCHERS
                    else kernel(namespace[name]))
             for name in names}
@@ -274,5 +278,8 @@ op_bound = _D["op_bound"]
 combine_rows = _D["combine_rows"]
 #: canonical warp map and Jacobian: warp_map(op, p, o, X, Y, Z)
 warp_map = _D["warp_map"]
+#: a bound on a warp's query map's Jacobian norm over a canonical box, or inf where the warp has
+#: no ``stretch`` kernel: warp_stretch(op, p, o, lox, loy, loz, hix, hiy, hiz)
+warp_stretch = _D["warp_stretch"]
 #: colour of a paint node: paint(op, p, o, px, py, pz, gx, gy, gz)
 paint = _D["paint"]

@@ -62,6 +62,20 @@ def bend_apply(w, X, Y, Z):
 
 
 @kernel
+def bend_stretch(p, o, lox, loy, loz, hix, hiy, hiz):
+    """The norm of the query map's Jacobian over the canonical box, at most: 1 before and past
+    the arc (a turn), max(1, 1 / (k rho)) on it at distance rho from the centre of curvature
+    (its rows have norms 1 / (k rho) and 1: :func:`bend_map`), so 1 / (k rho) at the box's
+    nearest point; inf where the box reaches the centre's side (v = 1/k - Y <= 0)."""
+    ik = 1.0 / p[o + K]
+    vlo = ik - hiy
+    if not vlo > 0.0:
+        return np.inf
+    uc = min(max(0.0, lox), hix)
+    return max(1.0, ik / math.sqrt(uc * uc + vlo * vlo))
+
+
+@kernel
 def bend_map(p, o, X, Y, Z):
     """The bend's query map (:func:`_bent`) and its Jacobian."""
     w = bend_frame(p, o)
@@ -90,7 +104,8 @@ class Bend(Warp):
         Param("toward", AXES, "y"),
     )
     LAYOUT = LAYOUT
-    KERNELS = WarpKernels(map=bend_map, frame=bend_frame, apply=bend_apply)
+    KERNELS = WarpKernels(map=bend_map, frame=bend_frame, apply=bend_apply,
+                          stretch=bend_stretch)
 
     def _check(self):
         if abs(self.degrees) < MIN_DEGREES:

@@ -59,11 +59,15 @@ class WarpKernels:
     ``apply(w, X, Y, Z) -> (qx, qy, qz)``: the same map without its Jacobian, its numbers read
     (and what they derive computed) once by ``frame`` for a whole batch of points, which
     ``apply`` then maps one by one (the batch walk's loop: the compiler cannot keep numbers
-    read from the params array out of a loop that writes the points' array)."""
+    read from the params array out of a loop that writes the points' array); optional
+    ``stretch(p, o, lox, loy, loz, hix, hiy, hiz) -> float``: a bound on the norm of the map's
+    Jacobian over the canonical box (inf where it has none: the warp's stretch over its whole box
+    serves, ``bounds.carry``)."""
 
     map: Callable
     frame: Callable | None = None
     apply: Callable | None = None
+    stretch: Callable | None = None
 
 
 @dataclass(frozen=True)
