@@ -63,7 +63,7 @@ SHADOW_OFFSET = 1e-4
 #: cone's rays are traced together (at most ``batch.BATCH`` of them: one batch of the engine).
 CONE_SIDE, PACKET_SIDE = 16, 8
 #: Length of the stretch of a PACKET_SIDE cone (in cone radii) its specialised program covers.
-LOCAL_SPAN = 16.0
+LOCAL_SPAN = 12.0
 #: First candidate segment of a ray, as a fraction of its chord through the bounds box.
 DELTA0 = 0.02
 #: First candidate segment of a ray leaving a stopped cone, in radii of that cone.
