@@ -63,11 +63,15 @@ def _program(node, cache: dict):
     return cache[key]
 
 
-def _measure(prog, box: tuple, x0: np.ndarray, Q: np.ndarray) -> tuple[float, float]:
-    """(the value-aware bound over the box at x0, the largest |grad f| sampled at Q)."""
+def _steepest(prog, Q: np.ndarray) -> float:
+    """The largest |grad f| sampled at Q (not 0: a ratio's denominator)."""
+    return max(float(np.linalg.norm(prog.gradient(Q), axis=1).max()), 1e-12)
+
+
+def _bound_of(prog, box: tuple, x0: np.ndarray) -> float:
+    """The value-aware bound over the box at x0 (as the tracer takes it)."""
     values = bool(bounds_use_values(prog.code))
-    bound = _bound(prog.arrays, box[0], box[1], x0, np.zeros(3), -1.0, values, prog.depth)
-    return bound, max(float(np.linalg.norm(prog.gradient(Q), axis=1).max()), 1e-12)
+    return _bound(prog.arrays, box[0], box[1], x0, np.zeros(3), -1.0, values, prog.depth)
 
 
 def _piece(node) -> str:
@@ -84,8 +88,9 @@ def gap_node(node, box: tuple, x0: np.ndarray, Q: np.ndarray, cache: dict):
     """The gap node of the box (module doc): (its type, live children, its bound, its sampled
     gradient, the sum of its live children's bounds), or None where the root is within 2."""
     found = None
+    bound = _bound_of(_program(node, cache), box, x0)
     while True:
-        bound, true = _measure(_program(node, cache), box, x0, Q)
+        true = _steepest(_program(node, cache), Q)
         if bound <= 2.0 * true:
             return found
         if not isinstance(node, Operator | Paint):
@@ -94,13 +99,13 @@ def gap_node(node, box: tuple, x0: np.ndarray, Q: np.ndarray, cache: dict):
         for child in node.children:
             lo, hi = (np.asarray(b) for b in _program(child, cache).bounds)
             if np.all(hi >= box[0]) and np.all(lo <= box[1]):
-                kb = _measure(_program(child, cache), box, x0, Q)[0]
+                kb = _bound_of(_program(child, cache), box, x0)
                 if kb > 0.0:
                     kids.append((kb, child))
         found = (type(node).__name__, len(kids), bound, true, sum(k for k, _ in kids))
         if not kids:
             return found
-        node = max(kids, key=lambda k: k[0])[1]
+        bound, node = max(kids, key=lambda k: k[0])
 
 
 def main() -> None:

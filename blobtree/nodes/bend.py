@@ -67,7 +67,7 @@ def bend_stretch(p, o, lox, loy, loz, hix, hiy, hiz):
     the arc (a turn), max(1, 1 / (k rho)) on it at distance rho from the centre of curvature
     (its rows have norms 1 / (k rho) and 1: :func:`bend_map`), so 1 / (k rho) at the box's
     nearest point; inf where the box reaches the centre's side (v = 1/k - Y <= 0)."""
-    ik = 1.0 / p[o + K]
+    _, ik, _, _, _ = bend_frame(p, o)
     vlo = ik - hiy
     if not vlo > 0.0:
         return np.inf
